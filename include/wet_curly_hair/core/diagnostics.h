@@ -1,0 +1,36 @@
+// Measurements of a state: strain, penetration, energy. Used by the runner, the tests and the node.
+#pragma once
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/state.h"
+
+namespace wet_curly_hair {
+
+struct StrainStats {
+  double max = 0.0;   ///< largest (L - L0) / L0 over all edges.
+  double mean = 0.0;  ///< mean absolute strain over all edges.
+};
+StrainStats edgeStrain(const HairModel& model, const HairState& state);
+
+/// Deepest penetration of a non-root particle into the head's surface (m, >= 0).
+double maxHeadPenetration(const HairModel& model, const HairState& state, const Pose& head_pose);
+
+/// Energy parts (J). Bending and core energies are evaluated with the frames of the current
+/// smoothed curve held fixed (the bending force is not an energy gradient, method.md §2.6).
+struct EnergyParts {
+  double kinetic = 0.0;
+  double gravity = 0.0;  ///< -m g . x, relative to the world origin.
+  double stretch = 0.0;
+  double bend = 0.0;
+  double core = 0.0;
+  double total() const { return kinetic + gravity + stretch + bend + core; }
+};
+/// Absolute kinetic energy (world frame). Uses state->scratch (no allocation).
+EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
+                   HairState* state);
+
+/// Largest particle speed (m/s), non-root particles.
+double maxSpeed(const HairModel& model, const HairState& state);
+
+}  // namespace wet_curly_hair

@@ -1,0 +1,62 @@
+// Grooms: the authored rest shape of the hair, in the head frame (metres, REP-103: x forward,
+// y left, z up). Generated on a scalp patch of an ellipsoid head, or imported from a .hair file.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/core/types.h"
+
+namespace wet_curly_hair {
+
+/// Strands as one structure of arrays: strand s owns points [strand_offsets[s], strand_offsets[s+1]),
+/// its root first. Strands may have different particle counts.
+struct Groom {
+  std::vector<uint32_t> strand_offsets{0};  ///< strands + 1 entries.
+  Vec3List points;                          ///< head frame, m.
+  Vec3List root_normals;                    ///< per strand: outward scalp normal at the root (unit).
+
+  int strandCount() const { return static_cast<int>(strand_offsets.size()) - 1; }
+  int particleCount() const { return static_cast<int>(points.size()); }
+  int strandSize(int s) const {
+    return static_cast<int>(strand_offsets[s + 1] - strand_offsets[s]);
+  }
+  /// Checks offsets, sizes (>= 2 particles per strand), finiteness and non-degenerate edges.
+  bool validate(std::string* why) const;
+};
+
+/// The head as an ellipsoid centred at the head-frame origin (plus optional capsules, see
+/// head_collider.h). The groom generator places roots on its surface.
+struct EllipsoidShape {
+  Vec3 center_m = Vec3(0.0, 0.0, 0.0);
+  Vec3 radii_m = Vec3(0.095, 0.078, 0.11);  ///< semi-axes along head x, y, z, m.
+};
+
+/// Parameters of the generated groom (scene YAML section `groom`).
+struct GroomConfig {
+  int strands = 200;                ///< number of strands.
+  int particles = 32;               ///< particles per strand, root included.
+  double length_m = 0.25;           ///< arc length of each strand, m.
+  double curl_radius_m = 0.01;      ///< helix radius, m; 0 gives straight hair.
+  double curl_pitch_m = 0.03;       ///< helix rise per turn, m (must be > 0 for curly hair).
+  double jitter = 0.1;              ///< relative random variation of radius, pitch, length.
+  int seed = 1;                     ///< random seed for root placement, phase and jitter.
+  double particle_mass_kg = 1e-4;   ///< mass of each non-root particle, kg.
+  double scalp_half_angle_deg = 70; ///< roots lie within this angle of the scalp axis.
+  Vec3 scalp_axis = Vec3(-0.25, 0.0, 1.0);  ///< centre direction of the scalp patch (head frame).
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// Generates a groom on the ellipsoid: roots spread over the scalp patch (Fibonacci spiral with
+/// jitter), each strand a helix about its root normal with radius ramped in over the first
+/// quarter turn (so the hair leaves the scalp along the normal), polyline with equal edge
+/// lengths. Deterministic for a given config.
+Groom generateGroom(const GroomConfig& config, const EllipsoidShape& head);
+
+/// Mean edge length for a helix of radius r and rise per turn `pitch` sampled at equal chords of
+/// length `edge`: solves l^2 = 4 r^2 sin^2(dt/2) + (pitch/2pi)^2 dt^2 for the angle step dt by
+/// bisection (method.md A9). Returns dt in (0, pi]; requires edge > 0.
+double helixAngleStepForChord(double radius_m, double pitch_m, double edge_m);
+
+}  // namespace wet_curly_hair

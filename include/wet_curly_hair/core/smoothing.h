@@ -1,0 +1,45 @@
+// The IIR smoothing filter of Iben et al. 2013, eq. (2) of Kim 2023 (method.md §2.3, A2, A3).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "wet_curly_hair/core/types.h"
+
+namespace wet_curly_hair {
+
+/// beta = min(1, 1 - exp(-l / alpha)), with l the mean REST edge length of the strand (A3) and
+/// alpha the smoothing length (m). alpha <= 0 means no smoothing (beta = 1, d_i = e_i).
+inline double smoothingBeta(double mean_rest_edge_m, double alpha_m) {
+  if (!(alpha_m > 0.0)) return 1.0;
+  return std::min(1.0, 1.0 - std::exp(-mean_rest_edge_m / alpha_m));
+}
+
+/// Eq. (2): d_i = 2(1-beta) d_{i-1} - (1-beta)^2 d_{i-2} + beta^2 (lambda_{i+1} - lambda_i),
+/// started with d_{-1} = d_{-2} = lambda_1 - lambda_0 (A2), so that d_0 = lambda_1 - lambda_0.
+/// Input: `count` samples lambda (positions or velocities); output: count - 1 differences d.
+/// A critically damped second-order low pass with unit DC gain: a straight uniform strand is
+/// reproduced exactly. Causal root -> tip: d_i depends on lambda_0 .. lambda_{i+1} only.
+inline void smoothDifferences(const Vec3* lambda, int count, double beta, Vec3* d) {
+  if (count < 2) return;
+  const double f1 = 2.0 * (1.0 - beta);
+  const double f2 = (1.0 - beta) * (1.0 - beta);
+  const double f3 = beta * beta;
+  Vec3 dm1 = lambda[1] - lambda[0];
+  Vec3 dm2 = dm1;
+  for (int i = 0; i + 1 < count; ++i) {
+    const Vec3 di = f1 * dm1 - f2 * dm2 + f3 * (lambda[i + 1] - lambda[i]);
+    d[i] = di;
+    dm2 = dm1;
+    dm1 = di;
+  }
+}
+
+/// Eq. (3): the smoothed curve p'_0 = lambda_0, p'_i = p'_{i-1} + d_{i-1}.
+inline void rebuildCurve(const Vec3& root, const Vec3* d, int count, Vec3* curve) {
+  if (count < 1) return;
+  curve[0] = root;
+  for (int i = 1; i < count; ++i) curve[i] = curve[i - 1] + d[i - 1];
+}
+
+}  // namespace wet_curly_hair

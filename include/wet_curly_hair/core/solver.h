@@ -1,0 +1,49 @@
+// The step: a recipe of stages over each strand (method.md §9.2), time injected by the caller.
+#pragma once
+
+#include <cstdint>
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/state.h"
+#include "wet_curly_hair/core/types.h"
+
+namespace wet_curly_hair {
+
+/// What the world tells the solver for one step.
+struct StepInputs {
+  Pose head_start;  ///< head -> world at the start of the step.
+  Pose head_end;    ///< head -> world at the end; roots are interpolated at every substep.
+};
+
+/// Counters of one step (what ran, what was clamped, what was repaired).
+struct StepStats {
+  int substeps = 0;
+  double substep_s = 0.0;
+  double max_strain_before_limit = 0.0;  ///< largest edge strain before the limiter projected it.
+  uint64_t strain_limited_edges = 0;     ///< edge projections by the strain limiter.
+  uint64_t velocity_clamps = 0;          ///< velocity clamps in the damping pass.
+  uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
+  uint64_t repaired_strands = 0;         ///< strands restored to their last good state.
+};
+
+/// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s.
+int substepCount(const SolverConfig& config, double dt_s);
+
+/// Damping passes used for substep h: config's minimum, raised until tau = h / n satisfies the
+/// explicit damping bound tau <= 0.9 m_min / (2 (c_s + c_b + c_c)).
+int dampingPassCount(const HairModel& model, const SolverConfig& config, double h);
+
+/// Advances the state by dt_s (one output frame, split into equal substeps). Nothing is allocated.
+/// After the step, each strand with a non-finite value or a strain beyond 3x the limit is
+/// restored to its last good state and counted (state->warnings, stats->repaired_strands).
+void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
+          HairState* state, StepStats* stats);
+
+/// Advances one strand by one substep h from time fraction s0 to s1 of the step (exposed for
+/// tests). Returns the largest strain before limiting.
+double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
+                     int strand, double s0, double s1, double h, HairState* state,
+                     StepStats* stats);
+
+}  // namespace wet_curly_hair

@@ -1,0 +1,50 @@
+// The offline runner as a library: a scene run for a set simulated time under its scripted head
+// motion, summarised as JSON. `wet_curly_hair_run` is a thin command line over this.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/io/scene.h"
+
+namespace wet_curly_hair {
+namespace io {
+
+struct RunOptions {
+  std::string hair_frames_dir;  ///< when set, frame_%05d.hair is written every hair_stride frames.
+  int hair_stride = 1;
+};
+
+struct RunSummary {
+  int strands = 0;
+  int particles = 0;
+  uint64_t steps = 0;
+  double substep_s = 0.0;
+  double wall_s = 0.0;
+  double sim_s = 0.0;
+  double max_strain = 0.0;               ///< largest edge strain seen at any frame.
+  double mean_strain = 0.0;              ///< mean absolute edge strain over the frames.
+  double max_strain_before_limit = 0.0;  ///< largest strain before the limiter projected it.
+  double max_penetration_m = 0.0;        ///< deepest penetration into the head at any frame.
+  uint64_t repairs = 0;
+  uint64_t nonfinite_values = 0;
+  bool finite = true;
+  double max_speed_end_m_s = 0.0;
+  std::vector<double> time_s;            ///< per frame
+  std::vector<double> energy;            ///< total energy per frame, J
+  std::vector<double> kinetic_energy;    ///< per frame, J
+  std::vector<double> max_speed_m_s;     ///< per frame
+  uint64_t velocity_clamps = 0;
+  uint64_t strain_limited_edges = 0;
+  uint64_t head_contacts = 0;
+  int hair_frames_written = 0;
+  std::string toJson() const;
+};
+
+/// Runs the scene. False (with a reason) on a bad scene or an unwritable output.
+bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* summary,
+              std::string* why);
+
+}  // namespace io
+}  // namespace wet_curly_hair

@@ -1,0 +1,83 @@
+// Scene files (YAML, yaml-cpp): groom, head, solver settings and scripted head motion, and the
+// table of dotted parameter names shared by the scene YAML, ROS parameters and the
+// set_parameters service ("solver.stretch.stiffness_n_per_m", "groom.strands", ...).
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/head_collider.h"
+#include "wet_curly_hair/core/head_motion.h"
+
+namespace wet_curly_hair {
+namespace io {
+
+/// Where the groom comes from when `groom.file` is set (a .hair file) instead of the generator.
+struct GroomFileConfig {
+  std::string file;         ///< path of a .hair file; empty: generate from `groom`.
+  double scale = 1.0;       ///< metres per file unit.
+  std::string up_axis = "z";///< the file's up axis: x, y, z, -x, -y, -z.
+  Vec3 offset_m = Vec3::Zero();  ///< added after scale and axis change (head frame).
+  int resample_particles = 0;    ///< 0 keeps the file's points.
+};
+
+/// Run settings for the offline runner.
+struct RunConfig {
+  double seconds = 2.0;        ///< simulated time, s.
+  double frame_s = 1.0 / 60.0; ///< output frame (one solver step), s.
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// A whole scene.
+struct SceneConfig {
+  GroomConfig groom;
+  GroomFileConfig groom_file;
+  HeadShape head;
+  SolverConfig solver;
+  HeadMotionConfig motion;
+  RunConfig run;
+  bool validate(std::string* why) const;
+};
+
+/// One named, typed parameter of a SceneConfig.
+struct ParamRef {
+  enum class Type { kDouble, kInt, kBool, kString };
+  std::string name;        ///< dotted name, e.g. "solver.bend.stiffness_n_per_m".
+  Type type;
+  void* field;             ///< points into the SceneConfig the table was made for.
+  std::string doc;         ///< unit and meaning.
+  bool needs_rebuild;      ///< true when changing it requires rebuilding the model (reset).
+  double getAsDouble() const;
+  /// Sets from a double (bools: 0 or 1; ints: integral values only). False with a reason if the
+  /// value cannot represent the type; range checks are SceneConfig::validate's job.
+  bool setFromDouble(double v, std::string* why) const;
+  std::string valueString() const;
+};
+
+/// The parameter table for `scene` (pointers into it: keep the scene alive and unmoved).
+std::vector<ParamRef> parameterTable(SceneConfig* scene);
+
+/// Applies name/value pairs all-or-nothing: on any unknown name, bad type or failed validation,
+/// *scene is unchanged and *why names the parameter. *needs_rebuild tells whether a change
+/// touched the groom, head or smoothing lengths (the model must be rebuilt).
+bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
+                     SceneConfig* scene, bool* needs_rebuild, std::string* why);
+
+/// Parses scene YAML text into *scene, starting from its current values. Unknown keys, values of
+/// the wrong type, NaN and out-of-range values are refused with the dotted key named; on failure
+/// *scene is unchanged.
+bool parseSceneYaml(const std::string& text, SceneConfig* scene, std::string* why);
+bool loadSceneFile(const std::string& path, SceneConfig* scene, std::string* why);
+
+/// The scene as YAML text (every parameter, with its documentation as comments).
+std::string sceneToYaml(const SceneConfig& scene);
+
+/// The built-in scene: curly hair on the default head, nodding (`config/scenes/default.yaml`
+/// is a copy of it, kept in step by a test).
+SceneConfig builtinScene();
+
+}  // namespace io
+}  // namespace wet_curly_hair

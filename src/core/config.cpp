@@ -1,0 +1,114 @@
+#include "wet_curly_hair/core/config.h"
+
+#include <cmath>
+#include <sstream>
+
+namespace wet_curly_hair {
+namespace config_check {
+
+bool finiteInRange(const std::string& name, double value, double lo, double hi, std::string* why) {
+  if (!std::isfinite(value) || value < lo || value > hi) {
+    if (why) {
+      std::ostringstream s;
+      s << name << ": " << value << " is outside the valid range [" << lo << ", " << hi << "]";
+      *why = s.str();
+    }
+    return false;
+  }
+  return true;
+}
+
+bool positive(const std::string& name, double value, std::string* why) {
+  if (!std::isfinite(value) || value <= 0.0) {
+    if (why) {
+      std::ostringstream s;
+      s << name << ": " << value << " must be a finite number greater than 0";
+      *why = s.str();
+    }
+    return false;
+  }
+  return true;
+}
+
+bool nonNegative(const std::string& name, double value, std::string* why) {
+  if (!std::isfinite(value) || value < 0.0) {
+    if (why) {
+      std::ostringstream s;
+      s << name << ": " << value << " must be a finite number not below 0";
+      *why = s.str();
+    }
+    return false;
+  }
+  return true;
+}
+
+bool finiteVec(const std::string& name, const Vec3& v, std::string* why) {
+  if (!v.allFinite()) {
+    if (why) *why = name + ": every component must be finite";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace config_check
+
+using namespace config_check;
+
+bool StretchConfig::validate(const std::string& p, std::string* why) const {
+  return positive(p + "stiffness_n_per_m", stiffness_n_per_m, why) &&
+         nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) &&
+         finiteInRange(p + "strain_limit", strain_limit, 1e-4, 1.0, why) &&
+         finiteInRange(p + "strain_rate_limit_per_substep", strain_rate_limit_per_substep, 1e-5,
+                       1.0, why);
+}
+
+bool BendConfig::validate(const std::string& p, std::string* why) const {
+  if (!nonNegative(p + "stiffness_n_per_m", stiffness_n_per_m, why) ||
+      !nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) ||
+      !finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why))
+    return false;
+  // Bending switched off (k_b = 0) is a valid, calm model; when it is on, the follower-like force
+  // needs enough smoothing and stiffness to settle (method.md §10.15; measured bound in README).
+  if (stiffness_n_per_m > 0.0) {
+    if (smoothing_edges < kMinBendSmoothingEdges) {
+      if (why) {
+        std::ostringstream s;
+        s << p << "smoothing_edges: " << smoothing_edges << " is below " << kMinBendSmoothingEdges
+          << " edge lengths, where the bending spring self-excites (flutter) at any step size";
+        *why = s.str();
+      }
+      return false;
+    }
+  }
+  return true;
+}
+
+bool CoreSpringConfig::validate(const std::string& p, std::string* why) const {
+  return nonNegative(p + "stiffness_n_per_m", stiffness_n_per_m, why) &&
+         nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) &&
+         finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why);
+}
+
+bool CollisionConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "offset_m", offset_m, 0.0, 0.05, why) &&
+         finiteInRange(p + "friction", friction, 0.0, 10.0, why);
+}
+
+bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
+  if (!finiteInRange(p + "substep_s", substep_s, 1e-7, 0.1, why)) return false;
+  if (damping_passes < 1 || damping_passes > 64) {
+    if (why) *why = p + "damping_passes: " + std::to_string(damping_passes) + " is outside [1, 64]";
+    return false;
+  }
+  return true;
+}
+
+bool SolverConfig::validate(const std::string& p, std::string* why) const {
+  return stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
+         core.validate(p + "core.", why) && collision.validate(p + "collision.", why) &&
+         integrator.validate(p + "integrator.", why) &&
+         finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
+         finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
+}
+
+}  // namespace wet_curly_hair

@@ -1,0 +1,185 @@
+#include "wet_curly_hair/core/groom.h"
+
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/frames.h"
+
+namespace wet_curly_hair {
+
+bool Groom::validate(std::string* why) const {
+  if (strand_offsets.empty() || strand_offsets.front() != 0) {
+    if (why) *why = "groom: strand_offsets must start at 0";
+    return false;
+  }
+  if (strandCount() < 1) {
+    if (why) *why = "groom: no strands";
+    return false;
+  }
+  if (strand_offsets.back() != points.size()) {
+    if (why) *why = "groom: strand_offsets do not end at the point count";
+    return false;
+  }
+  if (root_normals.size() != static_cast<size_t>(strandCount())) {
+    if (why) *why = "groom: one root normal per strand is required";
+    return false;
+  }
+  for (int s = 0; s < strandCount(); ++s) {
+    if (strand_offsets[s + 1] < strand_offsets[s] + 2) {
+      if (why) *why = "groom: strand " + std::to_string(s) + " has fewer than 2 particles";
+      return false;
+    }
+    if (!root_normals[s].allFinite() || root_normals[s].norm() < 0.5) {
+      if (why) *why = "groom: root normal of strand " + std::to_string(s) + " is not a unit vector";
+      return false;
+    }
+    for (uint32_t i = strand_offsets[s]; i < strand_offsets[s + 1]; ++i) {
+      if (!points[i].allFinite()) {
+        if (why) *why = "groom: point " + std::to_string(i) + " is not finite";
+        return false;
+      }
+      if (i + 1 < strand_offsets[s + 1] && (points[i + 1] - points[i]).norm() < 1e-9) {
+        if (why) {
+          *why = "groom: strand " + std::to_string(s) + " has a zero-length edge at point " +
+                 std::to_string(i);
+        }
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+bool GroomConfig::validate(const std::string& p, std::string* why) const {
+  using namespace config_check;
+  if (strands < 1 || strands > 10000000) {
+    if (why) *why = p + "strands: " + std::to_string(strands) + " must be in [1, 10000000]";
+    return false;
+  }
+  if (particles < 2 || particles > 4096) {
+    if (why) *why = p + "particles: " + std::to_string(particles) + " must be in [2, 4096]";
+    return false;
+  }
+  if (!finiteInRange(p + "length_m", length_m, 1e-4, 10.0, why) ||
+      !finiteInRange(p + "curl_radius_m", curl_radius_m, 0.0, 1.0, why) ||
+      !finiteInRange(p + "curl_pitch_m", curl_pitch_m, 0.0, 10.0, why) ||
+      !finiteInRange(p + "jitter", jitter, 0.0, 0.5, why) ||
+      !positive(p + "particle_mass_kg", particle_mass_kg, why) ||
+      !finiteInRange(p + "scalp_half_angle_deg", scalp_half_angle_deg, 0.0, 180.0, why) ||
+      !finiteVec(p + "scalp_axis", scalp_axis, why))
+    return false;
+  if (scalp_axis.norm() < 1e-9) {
+    if (why) *why = p + "scalp_axis: must not be the zero vector";
+    return false;
+  }
+  if (curl_radius_m > 0.0 && curl_pitch_m <= 0.0) {
+    if (why) *why = p + "curl_pitch_m: must be > 0 when curl_radius_m > 0 (a flat curl lies on the scalp)";
+    return false;
+  }
+  return true;
+}
+
+double helixAngleStepForChord(double r, double pitch, double edge) {
+  const double rise = pitch / (2.0 * M_PI);
+  auto chord = [&](double dt) {
+    const double s = std::sin(0.5 * dt);
+    return std::sqrt(4.0 * r * r * s * s + rise * rise * dt * dt);
+  };
+  if (chord(M_PI) <= edge) return M_PI;
+  double lo = 0.0, hi = M_PI;
+  for (int it = 0; it < 200; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (chord(mid) < edge ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+namespace {
+
+/// Deterministic uniform numbers in [0, 1) from mt19937_64 (independent of the standard
+/// library's distribution implementations, so grooms are identical across toolchains).
+class Uniform {
+ public:
+  explicit Uniform(uint64_t seed) : engine_(seed) {}
+  double next() { return static_cast<double>(engine_() >> 11) * (1.0 / 9007199254740992.0); }
+  double symmetric() { return 2.0 * next() - 1.0; }
+
+ private:
+  std::mt19937_64 engine_;
+};
+
+/// Point on the ellipsoid surface in direction u from its centre, and the outward normal there.
+void ellipsoidPoint(const EllipsoidShape& e, const Vec3& u, Vec3* point, Vec3* normal) {
+  const Vec3 q = u.cwiseQuotient(e.radii_m);
+  const Vec3 x = u / q.norm();
+  *point = e.center_m + x;
+  *normal = x.cwiseQuotient(e.radii_m.cwiseProduct(e.radii_m)).normalized();
+}
+
+}  // namespace
+
+Groom generateGroom(const GroomConfig& c, const EllipsoidShape& head) {
+  Groom g;
+  g.strand_offsets.assign(1, 0);
+  Uniform rng(static_cast<uint64_t>(c.seed) * 0x9E3779B97F4A7C15ull + 12345u);
+  const Vec3 axis = c.scalp_axis.normalized();
+  const Mat3 cap_frame = frameFromTangent(axis, Vec3::UnitX());
+  const double cos_max = std::cos(c.scalp_half_angle_deg * M_PI / 180.0);
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int s = 0; s < c.strands; ++s) {
+    // Fibonacci spiral over the spherical cap, jittered by a fraction of the spacing.
+    const double f = (s + 0.5 + 0.4 * c.jitter * rng.symmetric()) / c.strands;
+    const double cos_t = 1.0 - f * (1.0 - cos_max);
+    const double sin_t = std::sqrt(std::max(0.0, 1.0 - cos_t * cos_t));
+    const double phi = golden * s + 0.3 * c.jitter * rng.symmetric();
+    const Vec3 dir = cap_frame * Vec3(cos_t, sin_t * std::cos(phi), sin_t * std::sin(phi));
+    Vec3 root, normal;
+    ellipsoidPoint(head, dir, &root, &normal);
+
+    const double length = c.length_m * (1.0 + c.jitter * rng.symmetric());
+    const double radius = c.curl_radius_m * (1.0 + c.jitter * rng.symmetric());
+    const double pitch = c.curl_pitch_m * (1.0 + c.jitter * rng.symmetric());
+    const double phase = 2.0 * M_PI * rng.next();
+    const double edge = length / (c.particles - 1);
+    const Mat3 strand_frame = frameFromTangent(normal, Vec3::UnitZ());
+    const Vec3 u = std::cos(phase) * strand_frame.col(1) + std::sin(phase) * strand_frame.col(2);
+    const Vec3 w = normal.cross(u);
+
+    g.root_normals.push_back(normal);
+    g.points.push_back(root);
+    if (c.curl_radius_m <= 0.0) {
+      for (int k = 1; k < c.particles; ++k) g.points.push_back(root + normal * (k * edge));
+    } else {
+      // Helix about the root normal; the radius ramps in over the first quarter turn with a
+      // smoothstep so the strand leaves the scalp along the normal.
+      const double rise = pitch / (2.0 * M_PI);
+      const double ramp = 0.5 * M_PI;
+      auto curve = [&](double t) {
+        const double x = std::min(1.0, t / ramp);
+        const double r = radius * x * x * (3.0 - 2.0 * x);
+        return Vec3(root + normal * (rise * t) + r * (std::cos(t) - 1.0) * u + r * std::sin(t) * w);
+      };
+      // March along the curve placing particles at equal chord length (uniform edges, §10.3).
+      const double dt_guess = helixAngleStepForChord(radius, pitch, edge);
+      double t = 0.0;
+      Vec3 prev = root;
+      for (int k = 1; k < c.particles; ++k) {
+        double lo = t, hi = t + 4.0 * dt_guess + 1e-6;
+        while ((curve(hi) - prev).norm() < edge) hi += dt_guess + 1e-6;
+        for (int it = 0; it < 100; ++it) {
+          const double mid = 0.5 * (lo + hi);
+          ((curve(mid) - prev).norm() < edge ? lo : hi) = mid;
+        }
+        t = 0.5 * (lo + hi);
+        prev = curve(t);
+        g.points.push_back(prev);
+      }
+    }
+    g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
+  }
+  return g;
+}
+
+}  // namespace wet_curly_hair

@@ -1,0 +1,236 @@
+#include "wet_curly_hair/core/solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/head_collider.h"
+#include "wet_curly_hair/core/smoothing.h"
+#include "wet_curly_hair/core/springs.h"
+
+namespace wet_curly_hair {
+
+int substepCount(const SolverConfig& config, double dt_s) {
+  if (!(dt_s > 0.0)) return 0;
+  return std::max(1, static_cast<int>(std::ceil(dt_s / config.integrator.substep_s - 1e-9)));
+}
+
+int dampingPassCount(const HairModel& model, const SolverConfig& config, double h) {
+  const double c = config.stretch.damping_ns_per_m + config.bend.damping_ns_per_m +
+                   config.core.damping_ns_per_m;
+  int passes = config.integrator.damping_passes;
+  if (c > 0.0 && model.min_mass_kg > 0.0) {
+    const double tau_max = 0.9 * model.min_mass_kg / (2.0 * c);
+    passes = std::max(passes, static_cast<int>(std::ceil(h / tau_max)));
+  }
+  return passes;
+}
+
+double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
+                     int strand, double s0, double s1, double h, HairState* state,
+                     StepStats* stats) {
+  const int begin = model.strandBegin(strand);
+  const int n = model.strandSize(strand);
+  const int edges = n - 1;
+  Vec3* p = &state->position[begin];
+  Vec3* v = &state->velocity[begin];
+  const double* inv_m = &model.inv_mass[begin];
+  const double* m = &model.mass_kg[begin];
+  const double* rest = &model.rest_edge_m[begin];
+  StrandScratch& scr = state->scratch;
+  Vec3* f = scr.force.data();
+  Vec3* d = scr.smooth_bend.data();
+  Vec3* b = scr.smooth_core.data();
+  Vec3* nu = scr.smooth_vel.data();
+  Mat3* frame = scr.frame.data();
+  Vec3* target = scr.target.data();
+
+  // 1. Root: carried rigidly by the head, interpolated at this substep (§9.2 step 1). Its
+  // velocity is the one that lands it exactly on the pose at the end of the substep.
+  const Pose pose0 = interpolate(inputs.head_start, inputs.head_end, s0);
+  const Pose pose1 = interpolate(inputs.head_start, inputs.head_end, s1);
+  const Vec3 root_next = pose1.apply(model.rest_position_head[begin]);
+  v[0] = (root_next - p[0]) / h;
+
+  // 2. Smoothed curves, frames parallel-transported along the alpha_b curve, bend targets.
+  const Mat3 root_frame = pose0.rotation.toRotationMatrix() * model.root_frame_head[strand];
+  smoothDifferences(p, n, model.beta_bend[strand], d);
+  transportFrames(root_frame, d, edges, frame);
+  for (int i = 0; i < edges; ++i) target[i] = frame[i] * model.bend_local_target[begin + i];
+  smoothDifferences(p, n, model.beta_core[strand], b);
+
+  // 3. Elastic forces and gravity; segment convention F_i += f, F_{i+1} -= f (A1).
+  const Vec3 g = config.gravity_m_s2;
+  for (int i = 0; i < n; ++i) f[i] = m[i] * g;
+  const double ks = config.stretch.stiffness_n_per_m;
+  const double kb = config.bend.stiffness_n_per_m;
+  const double kc = config.core.stiffness_n_per_m;
+  for (int i = 0; i < edges; ++i) {
+    const Vec3 e = p[i + 1] - p[i];
+    const Vec3 fs = stretchForce(e, rest[i], ks) + bendForce(e, target[i], kb) +
+                    coreForce(b[i], model.core_rest_m[begin + i], kc);
+    f[i] += fs;
+    f[i + 1] -= fs;
+  }
+  // 4. Velocity update (semi-implicit Euler), roots excluded.
+  for (int i = 1; i < n; ++i) v[i] += (h * inv_m[i]) * f[i];
+
+  // 5. Damping passes with tau = h / n_d (eq. 1, 4, 5 damping terms; §9.2 step 5).
+  const double cs = config.stretch.damping_ns_per_m;
+  const double cb = config.bend.damping_ns_per_m;
+  const double cc = config.core.damping_ns_per_m;
+  const int passes = dampingPassCount(model, config, h);
+  const double tau = h / passes;
+  // The perpendicular relative velocity of eq. (4) is measured in the frame turning with the
+  // head: a strand co-rotating rigidly with the head has dv = omega x e, which the literal term
+  // would drag on, bending steadily spinning hair by c_b omega / k_b (measured: 0.6 % of the
+  // strand length at 0.25 rev/s). Subtracting omega x e makes the damping vanish on rigid
+  // co-rotation and leaves it unchanged on a still head.
+  const Eigen::AngleAxisd turn(pose1.rotation * pose0.rotation.conjugate());
+  const Vec3 omega = turn.axis() * (turn.angle() / h);
+  for (int pass = 0; pass < passes; ++pass) {
+    if (cc > 0.0) smoothDifferences(v, n, model.beta_core[strand], nu);
+    for (int i = 0; i < n; ++i) f[i].setZero();
+    for (int i = 0; i < edges; ++i) {
+      const Vec3 e = p[i + 1] - p[i];
+      const Vec3 dv = v[i + 1] - v[i];
+      Vec3 fd = stretchDampingForce(e, dv, cs) + bendDampingForce(e, dv - omega.cross(e), cb);
+      if (cc > 0.0) fd += coreDampingForce(b[i], nu[i], cc);
+      f[i] += fd;
+      f[i + 1] -= fd;
+    }
+    for (int i = 1; i < n; ++i) v[i] += (tau * inv_m[i]) * f[i];
+  }
+  // Velocity clamp root -> tip (Iben §2.2a): at most strain_rate_limit of strain per substep.
+  const double rate = config.stretch.strain_rate_limit_per_substep / h;
+  for (int i = 0; i < edges; ++i) {
+    const Vec3 vnew = clampAxialRelativeVelocity(p[i + 1] - p[i], v[i], v[i + 1], rate * rest[i]);
+    if (vnew != v[i + 1]) {
+      v[i + 1] = vnew;
+      ++stats->velocity_clamps;
+    }
+  }
+
+  // 8. Position update.
+  p[0] = root_next;
+  for (int i = 1; i < n; ++i) p[i] += h * v[i];
+
+  // 7. Head collision (§6): projection to the offset surface, inelastic, Coulomb friction. The
+  // head's velocity at the particle comes from the two interpolated poses.
+  if (config.collision.head_enabled) {
+    const double delta = config.collision.offset_m;
+    const double mu = config.collision.friction;
+    const Quat& r1 = pose1.rotation;
+    for (int i = 1; i < n; ++i) {
+      const Vec3 x_head = pose1.applyInverse(p[i]);
+      Vec3 n_head;
+      const double dist = model.head.distance(x_head, &n_head);
+      if (dist >= delta) continue;
+      const Vec3 v_head = (p[i] - pose0.apply(x_head)) / h;
+      collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
+      ++stats->head_contacts;
+    }
+  }
+
+  // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
+  const double limit = config.stretch.strain_limit;
+  double max_strain = 0.0;
+  for (int i = 0; i < edges; ++i) {
+    const double len = (p[i + 1] - p[i]).norm();
+    max_strain = std::max(max_strain, len / rest[i] - 1.0);
+    const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
+    if (disp.squaredNorm() > 0.0) {
+      p[i + 1] += disp;
+      v[i + 1] += disp / h;
+      ++stats->strain_limited_edges;
+    }
+  }
+  return max_strain;
+}
+
+namespace {
+
+/// True when every position and velocity of the strand is finite and every edge within the
+/// repair bound; counts non-finite scalars into *nonfinite.
+bool strandHealthy(const HairModel& model, const SolverConfig& config, int s,
+                   const HairState& state, uint64_t* nonfinite) {
+  const int begin = model.strandBegin(s);
+  const int n = model.strandSize(s);
+  bool ok = true;
+  for (int i = begin; i < begin + n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (!std::isfinite(state.position[i][k])) ++*nonfinite, ok = false;
+      if (!std::isfinite(state.velocity[i][k])) ++*nonfinite, ok = false;
+    }
+  }
+  return ok;
+}
+
+bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
+                    const HairState& state) {
+  const int begin = model.strandBegin(s);
+  const int n = model.strandSize(s);
+  const double bound = 3.0 * config.stretch.strain_limit;
+  for (int i = begin; i + 1 < begin + n; ++i) {
+    const double len = (state.position[i + 1] - state.position[i]).norm();
+    if (len > (1.0 + bound) * model.rest_edge_m[i]) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
+          HairState* state, StepStats* stats) {
+  StepStats local;
+  const int nsub = substepCount(config, dt_s);
+  local.substeps = nsub;
+  local.substep_s = nsub > 0 ? dt_s / nsub : 0.0;
+  if (nsub == 0) {
+    if (stats) *stats = local;
+    return;
+  }
+  const double h = dt_s / nsub;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    double max_strain = 0.0;
+    for (int k = 0; k < nsub; ++k) {
+      const double strain = substepStrand(model, config, inputs, s, double(k) / nsub,
+                                          double(k + 1) / nsub, h, state, &local);
+      max_strain = std::max(max_strain, strain);
+    }
+    local.max_strain_before_limit = std::max(local.max_strain_before_limit, max_strain);
+    uint64_t nonfinite = 0;
+    const bool finite = strandHealthy(model, config, s, *state, &nonfinite);
+    const bool strain_ok = finite && strandStrainOk(model, config, s, *state);
+    const int begin = model.strandBegin(s);
+    const int n = model.strandSize(s);
+    if (finite && strain_ok) {
+      std::copy_n(&state->position[begin], n, &state->last_good_position[begin]);
+      std::copy_n(&state->velocity[begin], n, &state->last_good_velocity[begin]);
+      continue;
+    }
+    // Repair: restore the strand's last good state, carried to the current head pose.
+    const Pose& now = inputs.head_end;
+    const Pose& before = inputs.head_start;
+    for (int i = begin; i < begin + n; ++i) {
+      const Vec3 x_head = before.applyInverse(state->last_good_position[i]);
+      state->position[i] = now.apply(x_head);
+      state->velocity[i] = now.rotate(before.rotation.conjugate() * state->last_good_velocity[i]);
+      state->last_good_position[i] = state->position[i];
+      state->last_good_velocity[i] = state->velocity[i];
+    }
+    ++local.repaired_strands;
+    if (!finite) {
+      ++state->warnings.nonfinite_repairs;
+      state->warnings.nonfinite_values += nonfinite;
+    } else {
+      ++state->warnings.strain_repairs;
+    }
+  }
+  state->time_s += dt_s;
+  ++state->step_count;
+  state->substep_count += nsub;
+  if (stats) *stats = local;
+}
+
+}  // namespace wet_curly_hair

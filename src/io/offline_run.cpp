@@ -1,0 +1,131 @@
+#include "wet_curly_hair/io/offline_run.h"
+
+#include <chrono>
+#include <cstdio>
+#include <sys/stat.h>
+
+#include "wet_curly_hair/core/diagnostics.h"
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/io/hair_file.h"
+#include "wet_curly_hair/io/json.h"
+#include "wet_curly_hair/io/scene_setup.h"
+
+namespace wet_curly_hair {
+namespace io {
+
+std::string RunSummary::toJson() const {
+  JsonObject o;
+  o.add("strands", strands)
+      .add("particles", particles)
+      .add("steps", static_cast<unsigned long long>(steps))
+      .add("substep_s", substep_s)
+      .add("wall_s", wall_s)
+      .add("sim_s", sim_s)
+      .add("realtime_factor", wall_s > 0.0 ? sim_s / wall_s : 0.0)
+      .add("max_strain", max_strain)
+      .add("mean_strain", mean_strain)
+      .add("max_strain_before_limit", max_strain_before_limit)
+      .add("max_penetration_m", max_penetration_m)
+      .add("repairs", static_cast<unsigned long long>(repairs))
+      .add("nonfinite_values", static_cast<unsigned long long>(nonfinite_values))
+      .add("finite", finite)
+      .add("max_speed_end_m_s", max_speed_end_m_s)
+      .add("velocity_clamps", static_cast<unsigned long long>(velocity_clamps))
+      .add("strain_limited_edges", static_cast<unsigned long long>(strain_limited_edges))
+      .add("head_contacts", static_cast<unsigned long long>(head_contacts))
+      .add("hair_frames_written", hair_frames_written)
+      .add("time_s", time_s)
+      .add("energy", energy)
+      .add("kinetic_energy", kinetic_energy)
+      .add("max_speed_m_s", max_speed_m_s);
+  return o.str();
+}
+
+namespace {
+
+bool writeFrame(const std::string& dir, int frame, const HairModel& model, const HairState& state,
+                std::string* why) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "/frame_%05d.hair", frame);
+  HairFileData data = groomPositionsToHair(model.strand_offsets, state.position, &state.saturation);
+  return writeHairFile(dir + name, data, why);
+}
+
+}  // namespace
+
+bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
+              std::string* why) {
+  HairModel model;
+  if (!buildSceneModel(scene, &model, why)) return false;
+  if (!options.hair_frames_dir.empty()) {
+    mkdir(options.hair_frames_dir.c_str(), 0755);
+    struct stat st;
+    if (stat(options.hair_frames_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+      if (why) *why = "--hair-frames: cannot create directory " + options.hair_frames_dir;
+      return false;
+    }
+    if (options.hair_stride < 1) {
+      if (why) *why = "--hair-stride: must be at least 1";
+      return false;
+    }
+  }
+  RunSummary s;
+  const HeadMotionConfig& motion = scene.motion;
+  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
+  s.strands = model.strandCount();
+  s.particles = model.particleCount();
+  const double frame = scene.run.frame_s;
+  const long frames = std::lround(scene.run.seconds / frame);
+  s.substep_s = frame / substepCount(scene.solver, frame);
+
+  auto record = [&](double t, const Pose& pose) {
+    const EnergyParts e = energy(model, scene.solver, pose, &state);
+    s.time_s.push_back(t);
+    s.energy.push_back(e.total());
+    s.kinetic_energy.push_back(e.kinetic);
+    s.max_speed_m_s.push_back(maxSpeed(model, state));
+    const StrainStats strain = edgeStrain(model, state);
+    s.max_strain = std::max(s.max_strain, strain.max);
+    s.mean_strain += strain.mean;
+    s.max_penetration_m = std::max(s.max_penetration_m, maxHeadPenetration(model, state, pose));
+  };
+  record(0.0, headPose(motion, 0.0));
+  if (!options.hair_frames_dir.empty()) {
+    if (!writeFrame(options.hair_frames_dir, 0, model, state, why)) return false;
+    ++s.hair_frames_written;
+  }
+  double wall = 0.0;
+  for (long f = 0; f < frames; ++f) {
+    StepInputs in;
+    in.head_start = headPose(motion, f * frame);
+    in.head_end = headPose(motion, (f + 1) * frame);
+    StepStats stats;
+    const auto t0 = std::chrono::steady_clock::now();
+    step(model, scene.solver, in, frame, &state, &stats);
+    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    s.max_strain_before_limit = std::max(s.max_strain_before_limit, stats.max_strain_before_limit);
+    s.velocity_clamps += stats.velocity_clamps;
+    s.strain_limited_edges += stats.strain_limited_edges;
+    s.head_contacts += stats.head_contacts;
+    record((f + 1) * frame, in.head_end);
+    if (!options.hair_frames_dir.empty() && (f + 1) % options.hair_stride == 0) {
+      if (!writeFrame(options.hair_frames_dir, static_cast<int>(f + 1), model, state, why))
+        return false;
+      ++s.hair_frames_written;
+    }
+  }
+  s.steps = state.step_count;
+  s.sim_s = frames * frame;
+  s.wall_s = wall;
+  s.mean_strain /= static_cast<double>(s.time_s.size());
+  s.repairs = state.warnings.total();
+  s.nonfinite_values = state.warnings.nonfinite_values;
+  s.finite = state.warnings.nonfinite_repairs == 0;
+  for (const Vec3& p : state.position) s.finite = s.finite && p.allFinite();
+  s.max_speed_end_m_s = s.max_speed_m_s.back();
+  *out = std::move(s);
+  return true;
+}
+
+}  // namespace io
+}  // namespace wet_curly_hair

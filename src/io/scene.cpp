@@ -1,0 +1,411 @@
+#include "wet_curly_hair/io/scene.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace wet_curly_hair {
+namespace io {
+
+bool RunConfig::validate(const std::string& p, std::string* why) const {
+  using namespace config_check;
+  return finiteInRange(p + "seconds", seconds, 0.0, 1e7, why) &&
+         finiteInRange(p + "frame_s", frame_s, 1e-5, 1.0, why);
+}
+
+bool SceneConfig::validate(std::string* why) const {
+  using namespace config_check;
+  if (!groom.validate("groom.", why) || !head.validate("head.", why) ||
+      !solver.validate("solver.", why) || !motion.validate("motion.", why) ||
+      !run.validate("run.", why))
+    return false;
+  if (!groom_file.file.empty()) {
+    if (!positive("groom_file.scale", groom_file.scale, why) ||
+        !finiteVec("groom_file.offset_m", groom_file.offset_m, why))
+      return false;
+    static const char* kAxes[] = {"x", "y", "z", "-x", "-y", "-z"};
+    bool axis_ok = false;
+    for (const char* a : kAxes) axis_ok = axis_ok || groom_file.up_axis == a;
+    if (!axis_ok) {
+      if (why) *why = "groom_file.up_axis: '" + groom_file.up_axis + "' is not one of x, y, z, -x, -y, -z";
+      return false;
+    }
+    if (groom_file.resample_particles != 0 &&
+        (groom_file.resample_particles < 2 || groom_file.resample_particles > 4096)) {
+      if (why) *why = "groom_file.resample_particles: must be 0 (keep) or in [2, 4096]";
+      return false;
+    }
+  }
+  return true;
+}
+
+namespace {
+
+void addVec(std::vector<ParamRef>* t, const std::string& name, Vec3* v, const std::string& doc,
+            bool rebuild) {
+  const char* axes[] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k)
+    t->push_back({name + "." + axes[k], ParamRef::Type::kDouble, &(*v)[k], doc, rebuild});
+}
+
+}  // namespace
+
+std::vector<ParamRef> parameterTable(SceneConfig* s) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef> t;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kInt, f, doc, rebuild});
+  };
+  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kBool, f, doc, rebuild});
+  };
+  auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kString, f, doc, rebuild});
+  };
+  GroomConfig& g = s->groom;
+  i("groom.strands", &g.strands, "number of generated strands", true);
+  i("groom.particles", &g.particles, "particles per strand, root included", true);
+  d("groom.length_m", &g.length_m, "strand arc length, m", true);
+  d("groom.curl_radius_m", &g.curl_radius_m, "helix radius, m (0: straight)", true);
+  d("groom.curl_pitch_m", &g.curl_pitch_m, "helix rise per turn, m", true);
+  d("groom.jitter", &g.jitter, "relative per-strand variation of radius, pitch, length", true);
+  i("groom.seed", &g.seed, "random seed", true);
+  d("groom.particle_mass_kg", &g.particle_mass_kg, "mass per particle, kg", true);
+  d("groom.scalp_half_angle_deg", &g.scalp_half_angle_deg, "scalp patch half angle, deg", true);
+  addVec(&t, "groom.scalp_axis", &g.scalp_axis, "scalp patch centre direction (head frame)", true);
+  GroomFileConfig& gf = s->groom_file;
+  str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)", true);
+  d("groom_file.scale", &gf.scale, "metres per file unit", true);
+  str("groom_file.up_axis", &gf.up_axis, "the file's up axis: x, y, z, -x, -y, -z", true);
+  addVec(&t, "groom_file.offset_m", &gf.offset_m, "offset after scaling, head frame, m", true);
+  i("groom_file.resample_particles", &gf.resample_particles, "0 keeps the file's points", true);
+  addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
+  addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);
+  SolverConfig& c = s->solver;
+  d("solver.stretch.stiffness_n_per_m", &c.stretch.stiffness_n_per_m, "k_s, N/m (eq. 1)", false);
+  d("solver.stretch.damping_ns_per_m", &c.stretch.damping_ns_per_m, "c_s, N s/m (eq. 1)", false);
+  d("solver.stretch.strain_limit", &c.stretch.strain_limit, "largest edge strain", false);
+  d("solver.stretch.strain_rate_limit_per_substep", &c.stretch.strain_rate_limit_per_substep,
+    "velocity clamp: largest strain change per substep", false);
+  d("solver.bend.stiffness_n_per_m", &c.bend.stiffness_n_per_m, "k_b, N/m (eq. 4)", false);
+  d("solver.bend.damping_ns_per_m", &c.bend.damping_ns_per_m, "c_b, N s/m (eq. 4)", false);
+  d("solver.bend.smoothing_edges", &c.bend.smoothing_edges, "alpha_b in mean edge lengths", true);
+  d("solver.core.stiffness_n_per_m", &c.core.stiffness_n_per_m, "k_c, N/m (eq. 5)", false);
+  d("solver.core.damping_ns_per_m", &c.core.damping_ns_per_m, "c_c, N s/m (eq. 5)", false);
+  d("solver.core.smoothing_edges", &c.core.smoothing_edges, "alpha_c in mean edge lengths", true);
+  b("solver.collision.head_enabled", &c.collision.head_enabled, "collide with the head", false);
+  d("solver.collision.offset_m", &c.collision.offset_m, "collision offset delta, m", false);
+  d("solver.collision.friction", &c.collision.friction, "Coulomb friction mu", false);
+  d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);
+  i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
+  addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
+  HeadMotionConfig& m = s->motion;
+  str("motion.type", &m.type, "still, spin, nod, shake, teleport, linear", false);
+  d("motion.rate_hz", &m.rate_hz, "spin rate, rev/s", false);
+  d("motion.freq_hz", &m.freq_hz, "nod/shake frequency, Hz", false);
+  d("motion.amplitude_rad", &m.amplitude_rad, "nod/shake amplitude, rad", false);
+  d("motion.distance_m", &m.distance_m, "teleport distance, m", false);
+  d("motion.speed_m_s", &m.speed_m_s, "linear speed, m/s", false);
+  d("motion.start_s", &m.start_s, "motion start (teleport instant), s", false);
+  d("motion.stop_s", &m.stop_s, "motion stops dead at this time, s", false);
+  addVec(&t, "motion.axis", &m.axis, "spin axis / translation direction", false);
+  d("run.seconds", &s->run.seconds, "simulated time, s", false);
+  d("run.frame_s", &s->run.frame_s, "output frame, s", false);
+  return t;
+}
+
+double ParamRef::getAsDouble() const {
+  switch (type) {
+    case Type::kDouble: return *static_cast<double*>(field);
+    case Type::kInt: return *static_cast<int*>(field);
+    case Type::kBool: return *static_cast<bool*>(field) ? 1.0 : 0.0;
+    case Type::kString: return std::nan("");
+  }
+  return std::nan("");
+}
+
+namespace {
+
+/// Shortest text that reads back as exactly the same double.
+std::string shortest(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
+}
+
+}  // namespace
+
+std::string ParamRef::valueString() const {
+  std::ostringstream s;
+  switch (type) {
+    case Type::kDouble: s << shortest(*static_cast<double*>(field)); break;
+    case Type::kInt: s << *static_cast<int*>(field); break;
+    case Type::kBool: s << (*static_cast<bool*>(field) ? "true" : "false"); break;
+    case Type::kString: s << *static_cast<std::string*>(field); break;
+  }
+  return s.str();
+}
+
+bool ParamRef::setFromDouble(double v, std::string* why) const {
+  if (!std::isfinite(v)) {
+    if (why) *why = name + ": value is not finite";
+    return false;
+  }
+  switch (type) {
+    case Type::kDouble: *static_cast<double*>(field) = v; return true;
+    case Type::kInt:
+      if (v != std::floor(v) || std::abs(v) > 2e9) {
+        if (why) *why = name + ": " + std::to_string(v) + " is not an integer";
+        return false;
+      }
+      *static_cast<int*>(field) = static_cast<int>(v);
+      return true;
+    case Type::kBool:
+      if (v != 0.0 && v != 1.0) {
+        if (why) *why = name + ": a boolean takes 0 or 1, not " + std::to_string(v);
+        return false;
+      }
+      *static_cast<bool*>(field) = v == 1.0;
+      return true;
+    case Type::kString:
+      if (why) *why = name + ": is a string parameter and cannot be set from a number";
+      return false;
+  }
+  return false;
+}
+
+bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
+                     SceneConfig* scene, bool* needs_rebuild, std::string* why) {
+  if (names.size() != values.size()) {
+    if (why) *why = "names and values differ in length (" + std::to_string(names.size()) + " vs " +
+                    std::to_string(values.size()) + ")";
+    return false;
+  }
+  SceneConfig copy = *scene;
+  const std::vector<ParamRef> table = parameterTable(&copy);
+  bool rebuild = false;
+  for (size_t k = 0; k < names.size(); ++k) {
+    const ParamRef* ref = nullptr;
+    for (const ParamRef& r : table)
+      if (r.name == names[k]) ref = &r;
+    if (!ref) {
+      if (why) *why = names[k] + ": unknown parameter";
+      return false;
+    }
+    if (!ref->setFromDouble(values[k], why)) return false;
+    rebuild = rebuild || ref->needs_rebuild;
+  }
+  if (!copy.validate(why)) return false;
+  *scene = copy;
+  if (needs_rebuild) *needs_rebuild = rebuild;
+  return true;
+}
+
+namespace {
+
+struct YamlWalker {
+  std::map<std::string, const ParamRef*> table;
+  SceneConfig* scene;
+  std::string* why;
+
+  bool fail(const std::string& message) {
+    if (why) *why = message;
+    return false;
+  }
+
+  bool setScalar(const std::string& key, const YAML::Node& node) {
+    auto it = table.find(key);
+    if (it == table.end()) return fail(key + ": unknown key");
+    const ParamRef& ref = *it->second;
+    const std::string text = node.Scalar();
+    try {
+      switch (ref.type) {
+        case ParamRef::Type::kString:
+          *static_cast<std::string*>(ref.field) = text;
+          return true;
+        case ParamRef::Type::kBool:
+          *static_cast<bool*>(ref.field) = node.as<bool>();
+          return true;
+        case ParamRef::Type::kInt: {
+          const double v = node.as<double>();
+          return ref.setFromDouble(v, why);
+        }
+        case ParamRef::Type::kDouble: {
+          const double v = node.as<double>();
+          if (!std::isfinite(v)) return fail(key + ": '" + text + "' is not a finite number");
+          *static_cast<double*>(ref.field) = v;
+          return true;
+        }
+      }
+    } catch (const YAML::Exception&) {
+      return fail(key + ": '" + text + "' is not a valid value for this key");
+    }
+    return false;
+  }
+
+  bool capsules(const std::string& key, const YAML::Node& node) {
+    if (!node.IsSequence()) return fail(key + ": must be a list of capsules");
+    std::vector<CapsuleShape> list;
+    for (size_t k = 0; k < node.size(); ++k) {
+      const std::string p = key + "[" + std::to_string(k) + "]";
+      const YAML::Node& c = node[k];
+      if (!c.IsMap()) return fail(p + ": must be a map with name, a_m, b_m, radius_m");
+      CapsuleShape cap;
+      for (const auto& kv : c) {
+        const std::string sub = kv.first.as<std::string>();
+        try {
+          if (sub == "name") {
+            cap.name = kv.second.as<std::string>();
+          } else if (sub == "radius_m") {
+            cap.radius_m = kv.second.as<double>();
+          } else if (sub == "a_m" || sub == "b_m") {
+            Vec3& v = sub == "a_m" ? cap.a_m : cap.b_m;
+            if (!kv.second.IsSequence() || kv.second.size() != 3)
+              return fail(p + "." + sub + ": must be a list of 3 numbers");
+            for (int a = 0; a < 3; ++a) v[a] = kv.second[a].as<double>();
+          } else {
+            return fail(p + "." + sub + ": unknown key");
+          }
+        } catch (const YAML::Exception&) {
+          return fail(p + "." + sub + ": not a valid value");
+        }
+      }
+      list.push_back(cap);
+    }
+    scene->head.capsules = list;
+    return true;
+  }
+
+  bool walk(const std::string& prefix, const YAML::Node& node) {
+    if (node.IsNull()) return prefix.empty() ? true : fail(prefix + ": has no value");
+    if (prefix == "head.capsules") return capsules(prefix, node);
+    if (node.IsMap()) {
+      for (const auto& kv : node) {
+        std::string sub;
+        try {
+          sub = kv.first.as<std::string>();
+        } catch (const YAML::Exception&) {
+          return fail(prefix + ": a key is not a string");
+        }
+        if (!walk(prefix.empty() ? sub : prefix + "." + sub, kv.second)) return false;
+      }
+      return true;
+    }
+    if (node.IsSequence()) {
+      // A 3-vector may be written [x, y, z].
+      if (table.count(prefix + ".x") && node.size() == 3) {
+        const char* axes[] = {"x", "y", "z"};
+        for (int k = 0; k < 3; ++k) {
+          if (!node[k].IsScalar()) return fail(prefix + ": must be a list of 3 numbers");
+          if (!setScalar(prefix + "." + axes[k], node[k])) return false;
+        }
+        return true;
+      }
+      return fail(prefix + ": unexpected list" +
+                  (table.count(prefix + ".x") ? " (a vector takes exactly 3 numbers)" : ""));
+    }
+    if (prefix.empty()) return fail("scene: the document must be a map");
+    return setScalar(prefix, node);
+  }
+};
+
+}  // namespace
+
+bool parseSceneYaml(const std::string& text, SceneConfig* scene, std::string* why) {
+  SceneConfig copy = *scene;
+  std::vector<ParamRef> table = parameterTable(&copy);
+  YamlWalker walker;
+  for (const ParamRef& r : table) walker.table[r.name] = &r;
+  walker.scene = &copy;
+  walker.why = why;
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    if (why) *why = std::string("scene: YAML syntax error: ") + e.what();
+    return false;
+  }
+  if (!root.IsNull() && !root.IsMap()) {
+    if (why) *why = "scene: the document must be a map of sections";
+    return false;
+  }
+  if (!walker.walk("", root)) return false;
+  if (!copy.validate(why)) return false;
+  *scene = copy;
+  return true;
+}
+
+bool loadSceneFile(const std::string& path, SceneConfig* scene, std::string* why) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    if (why) *why = path + ": cannot open the scene file";
+    return false;
+  }
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  std::string inner;
+  if (!parseSceneYaml(buffer.str(), scene, &inner)) {
+    if (why) *why = path + ": " + inner;
+    return false;
+  }
+  return true;
+}
+
+std::string sceneToYaml(const SceneConfig& scene_in) {
+  SceneConfig scene = scene_in;
+  const std::vector<ParamRef> table = parameterTable(&scene);
+  std::ostringstream out;
+  out << "# wet_curly_hair scene: every key, with its unit (dotted names = set_parameters names)\n";
+  std::vector<std::string> open;
+  for (const ParamRef& r : table) {
+    std::vector<std::string> parts;
+    std::stringstream ss(r.name);
+    std::string part;
+    while (std::getline(ss, part, '.')) parts.push_back(part);
+    size_t common = 0;
+    while (common < open.size() && common + 1 < parts.size() && open[common] == parts[common])
+      ++common;
+    open.resize(common);
+    for (size_t k = common; k + 1 < parts.size(); ++k) {
+      out << std::string(2 * k, ' ') << parts[k] << ":\n";
+      open.push_back(parts[k]);
+    }
+    std::string value = r.valueString();
+    if (r.type == ParamRef::Type::kString) value = "\"" + value + "\"";
+    out << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << value << "  # "
+        << r.doc << "\n";
+    if (r.name == "head.radii_m.z" && !scene.head.capsules.empty()) {
+      out << "  capsules:  # neck, ears: points within radius_m of segment a_m-b_m (head frame, m)\n";
+      for (const CapsuleShape& c : scene.head.capsules) {
+        out << "    - {name: \"" << c.name << "\", a_m: [" << shortest(c.a_m.x()) << ", "
+            << shortest(c.a_m.y()) << ", " << shortest(c.a_m.z()) << "], b_m: ["
+            << shortest(c.b_m.x()) << ", " << shortest(c.b_m.y()) << ", " << shortest(c.b_m.z())
+            << "], radius_m: " << shortest(c.radius_m) << "}\n";
+      }
+      open.resize(1);
+    }
+  }
+  return out.str();
+}
+
+SceneConfig builtinScene() {
+  SceneConfig s;
+  s.groom.strands = 200;
+  s.groom.particles = 32;
+  s.head.capsules.push_back({"neck", Vec3(-0.01, 0.0, -0.06), Vec3(-0.02, 0.0, -0.25), 0.055});
+  s.motion.type = "nod";
+  s.motion.freq_hz = 0.5;
+  s.motion.amplitude_rad = 0.3;
+  s.run.seconds = 4.0;
+  return s;
+}
+
+}  // namespace io
+}  // namespace wet_curly_hair

@@ -1,0 +1,81 @@
+// The head's analytic colliders and the Bridson collision response (method.md §6).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "wet_curly_hair/core/head_collider.h"
+
+using namespace wet_curly_hair;
+
+TEST(HeadCollider, EllipsoidDistanceIsExactOnASphere) {
+  EllipsoidShape s;
+  s.radii_m = Vec3(0.1, 0.1, 0.1);
+  s.center_m = Vec3(0.01, 0.02, 0.03);
+  for (const Vec3& dir : {Vec3(1, 0, 0), Vec3(0.3, -0.5, 0.8).normalized()}) {
+    for (double r : {0.02, 0.1, 0.13, 0.5}) {
+      Vec3 n;
+      const double d = ellipsoidDistance(s, s.center_m + r * dir, &n);
+      EXPECT_NEAR(d, r - 0.1, 1e-12);
+      EXPECT_LT((n - dir).norm(), 1e-12);
+    }
+  }
+}
+
+TEST(HeadCollider, EllipsoidDistanceIsZeroOnTheSurfaceAndCloseNearIt) {
+  EllipsoidShape e;  // default head
+  for (double th = 0.1; th < 3.1; th += 0.3) {
+    for (double ph = 0.0; ph < 6.2; ph += 0.5) {
+      const Vec3 u(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+      const Vec3 x = u.cwiseProduct(e.radii_m);  // on the surface
+      Vec3 n;
+      EXPECT_NEAR(ellipsoidDistance(e, x, &n), 0.0, 1e-15);
+      // Exact normal on the surface: x / r^2 normalised.
+      EXPECT_LT((n - x.cwiseQuotient(e.radii_m.cwiseProduct(e.radii_m)).normalized()).norm(), 1e-12);
+      // 5 mm outward along the normal: the estimate is within 5 % of the true 5 mm.
+      EXPECT_NEAR(ellipsoidDistance(e, x + 0.005 * n, &n), 0.005, 0.00025);
+    }
+  }
+}
+
+TEST(HeadCollider, CapsuleDistanceIsExact) {
+  CapsuleShape c{"neck", Vec3(0, 0, 0), Vec3(0, 0, -0.2), 0.05};
+  Vec3 n;
+  EXPECT_NEAR(capsuleDistance(c, Vec3(0.08, 0, -0.1), &n), 0.03, 1e-15);
+  EXPECT_LT((n - Vec3(1, 0, 0)).norm(), 1e-15);
+  EXPECT_NEAR(capsuleDistance(c, Vec3(0, 0, 0.07), &n), 0.02, 1e-15);
+  EXPECT_NEAR(capsuleDistance(c, Vec3(0, 0.01, -0.1), &n), -0.04, 1e-15);
+  EXPECT_TRUE(std::isfinite(capsuleDistance(c, Vec3(0, 0, -0.1), &n)));  // on the axis
+  EXPECT_NEAR(n.norm(), 1.0, 1e-12);
+}
+
+TEST(HeadCollider, HeadShapeTakesTheClosestShape) {
+  HeadShape h;
+  h.capsules.push_back({"neck", Vec3(0, 0, -0.05), Vec3(0, 0, -0.3), 0.05});
+  Vec3 n;
+  EXPECT_NEAR(h.distance(Vec3(0.06, 0, -0.25), &n), 0.01, 1e-12);
+}
+
+TEST(HeadCollider, ProjectionIsInelasticWithoutAddedVelocity) {
+  Vec3 x(0, 0, -0.002), v(0.0, 0.0, -1.0);
+  EXPECT_TRUE(collideParticle(-0.002, Vec3::UnitZ(), 0.001, 0.0, Vec3::Zero(), &x, &v));
+  EXPECT_NEAR(x.z(), 0.001, 1e-15);     // moved to the offset surface
+  EXPECT_NEAR(v.norm(), 0.0, 1e-15);    // approaching normal velocity removed, nothing added
+  Vec3 y(0, 0, -0.002), w(0.0, 0.0, 2.0);  // already leaving: velocity untouched
+  collideParticle(-0.002, Vec3::UnitZ(), 0.001, 0.3, Vec3::Zero(), &y, &w);
+  EXPECT_NEAR(w.z(), 2.0, 1e-15);
+  Vec3 far(0, 0, 1), vf(1, 2, 3);
+  EXPECT_FALSE(collideParticle(0.5, Vec3::UnitZ(), 0.001, 0.3, Vec3::Zero(), &far, &vf));
+}
+
+TEST(HeadCollider, CoulombFrictionKineticAndStatic) {
+  // Kinetic: tangential speed reduced by mu times the removed normal speed.
+  Vec3 x(0, 0, 0), v(1.0, 0.0, -1.0);
+  collideParticle(0.0, Vec3::UnitZ(), 0.001, 0.3, Vec3::Zero(), &x, &v);
+  EXPECT_NEAR(v.x(), 0.7, 1e-15);
+  EXPECT_NEAR(v.z(), 0.0, 1e-15);
+  // Static: friction would reverse it, so it stops (relative to the moving collider).
+  const Vec3 vobj(0.2, 0.0, 0.0);
+  Vec3 y(0, 0, 0), w = vobj + Vec3(0.1, 0.0, -1.0);
+  collideParticle(0.0, Vec3::UnitZ(), 0.001, 0.3, vobj, &y, &w);
+  EXPECT_LT((w - vobj).norm(), 1e-15);
+}

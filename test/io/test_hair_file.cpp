@@ -1,0 +1,805 @@
+// Tests of the `.hair` reader/writer, the up-axis rotation, the Groom import and frame export.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/io/hair_file.h"
+
+namespace wet_curly_hair {
+namespace io {
+namespace {
+
+// ------------------------------------------------------------------------------ helpers
+
+/// Optional parts of a small test file.
+struct Parts {
+  bool segments = true;
+  bool thickness = false;
+  bool transparency = false;
+  bool colors = false;
+};
+
+/// Two strands: 3 and 4 points with a segments array, 3 and 3 without (default_segments = 2).
+/// Values include -0, a denormal and awkward fractions so that round trips are checked bitwise.
+HairFileData makeSmall(const Parts& parts) {
+  HairFileData d;
+  const uint32_t second = parts.segments ? 4 : 3;
+  d.strand_offsets = {0, 3, 3 + second};
+  const int n = static_cast<int>(d.strand_offsets.back());
+  for (int i = 0; i < n; ++i) {
+    d.points.push_back(0.1f * static_cast<float>(i) + 1.f / 3.f);
+    d.points.push_back(i == 1 ? -0.f : -2.5f * static_cast<float>(i));
+    d.points.push_back(i == 2 ? std::numeric_limits<float>::denorm_min()
+                              : 7.f + static_cast<float>(i) / 7.f);
+  }
+  if (parts.thickness) {
+    for (int i = 0; i < n; ++i) d.thickness.push_back(0.01f * static_cast<float>(i + 1) / 3.f);
+  }
+  if (parts.transparency) {
+    for (int i = 0; i < n; ++i) d.transparency.push_back(static_cast<float>(i) / 11.f);
+  }
+  if (parts.colors) {
+    for (int i = 0; i < 3 * n; ++i) d.colors.push_back(static_cast<float>(i % 5) / 9.f);
+  }
+  d.write_segments_array = parts.segments;
+  d.default_segments = parts.segments ? 5 : 2;
+  d.default_thickness = 0.125f / 3.f;
+  d.default_transparency = 0.3f;
+  d.default_color[0] = 0.1f;
+  d.default_color[1] = -0.f;
+  d.default_color[2] = 1.f / 7.f;
+  d.info = "test file, cm, y up";
+  return d;
+}
+
+bool sameBits(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0);
+}
+
+bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof(float)) == 0; }
+
+/// Bitwise equality of every field.
+::testing::AssertionResult identical(const HairFileData& a, const HairFileData& b) {
+  if (a.strand_offsets != b.strand_offsets) return ::testing::AssertionFailure() << "offsets";
+  if (!sameBits(a.points, b.points)) return ::testing::AssertionFailure() << "points";
+  if (!sameBits(a.thickness, b.thickness)) return ::testing::AssertionFailure() << "thickness";
+  if (!sameBits(a.transparency, b.transparency)) {
+    return ::testing::AssertionFailure() << "transparency";
+  }
+  if (!sameBits(a.colors, b.colors)) return ::testing::AssertionFailure() << "colors";
+  if (a.write_segments_array != b.write_segments_array) {
+    return ::testing::AssertionFailure() << "write_segments_array";
+  }
+  if (a.default_segments != b.default_segments) {
+    return ::testing::AssertionFailure() << "default_segments";
+  }
+  if (!sameBits(a.default_thickness, b.default_thickness)) {
+    return ::testing::AssertionFailure() << "default_thickness";
+  }
+  if (!sameBits(a.default_transparency, b.default_transparency)) {
+    return ::testing::AssertionFailure() << "default_transparency";
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (!sameBits(a.default_color[k], b.default_color[k])) {
+      return ::testing::AssertionFailure() << "default_color[" << k << "]";
+    }
+  }
+  if (a.info != b.info) {
+    return ::testing::AssertionFailure() << "info '" << a.info << "' vs '" << b.info << "'";
+  }
+  return ::testing::AssertionSuccess();
+}
+
+std::vector<uint8_t> serialized(const HairFileData& d) {
+  std::vector<uint8_t> bytes;
+  std::string error;
+  EXPECT_TRUE(serializeHair(d, &bytes, &error)) << error;
+  return bytes;
+}
+
+void putU32(std::vector<uint8_t>* b, size_t offset, uint32_t v) {
+  for (int i = 0; i < 4; ++i) (*b)[offset + i] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+void putU16(std::vector<uint8_t>* b, size_t offset, uint16_t v) {
+  (*b)[offset] = static_cast<uint8_t>(v);
+  (*b)[offset + 1] = static_cast<uint8_t>(v >> 8);
+}
+
+void putF32(std::vector<uint8_t>* b, size_t offset, float f) {
+  uint32_t bits;
+  std::memcpy(&bits, &f, 4);
+  putU32(b, offset, bits);
+}
+
+uint32_t getU32(const std::vector<uint8_t>& b, size_t offset) {
+  uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<uint32_t>(b[offset + i]) << (8 * i);
+  return v;
+}
+
+/// A recognisable output that a refused parse must leave as it is.
+HairFileData sentinel() {
+  Parts p;
+  p.thickness = p.colors = true;
+  HairFileData d = makeSmall(p);
+  d.info = "sentinel";
+  return d;
+}
+
+/// Expects parseHair to refuse `bytes` with a message containing every one of `needles`, and to
+/// leave the output untouched.
+void expectRefused(const std::vector<uint8_t>& bytes, const std::vector<std::string>& needles) {
+  HairFileData out = sentinel();
+  std::string error;
+  EXPECT_FALSE(parseHair(bytes.data(), bytes.size(), &out, &error));
+  for (const std::string& needle : needles) {
+    EXPECT_NE(error.find(needle), std::string::npos)
+        << "message '" << error << "' lacks '" << needle << "'";
+  }
+  EXPECT_TRUE(identical(out, sentinel()));
+}
+
+std::string tempPath(const std::string& name) { return ::testing::TempDir() + name; }
+
+std::string sintelPath() { return WCH_SOURCE_DIR "/../shared/data/sintel_lite.hair"; }
+
+bool fileExists(const std::string& path) { return std::ifstream(path).good(); }
+
+std::vector<double> edgeLengths(const Vec3List& p, uint32_t b, uint32_t e) {
+  std::vector<double> out;
+  for (uint32_t i = b; i + 1 < e; ++i) out.push_back((p[i + 1] - p[i]).norm());
+  return out;
+}
+
+void expectEqualEdges(const std::vector<double>& edges, double rel) {
+  ASSERT_FALSE(edges.empty());
+  const double ref = edges.front();
+  for (size_t i = 0; i < edges.size(); ++i) {
+    EXPECT_NEAR(edges[i], ref, rel * ref) << "edge " << i;
+  }
+}
+
+// ------------------------------------------------------------------------------ round trips
+
+TEST(HairFileRoundTrip, ExactForEveryCombinationOfOptionalArrays) {
+  for (int mask = 0; mask < 16; ++mask) {
+    Parts parts;
+    parts.segments = (mask & 1) != 0;
+    parts.thickness = (mask & 2) != 0;
+    parts.transparency = (mask & 4) != 0;
+    parts.colors = (mask & 8) != 0;
+    SCOPED_TRACE("mask " + std::to_string(mask));
+    const HairFileData in = makeSmall(parts);
+    const std::vector<uint8_t> bytes = serialized(in);
+    const size_t n = in.points.size() / 3;
+    const size_t expected_size = kHairHeaderBytes + (parts.segments ? 2 * 2 : 0) + 12 * n +
+                                 (parts.thickness ? 4 * n : 0) + (parts.transparency ? 4 * n : 0) +
+                                 (parts.colors ? 12 * n : 0);
+    EXPECT_EQ(bytes.size(), expected_size);
+    EXPECT_EQ(getU32(bytes, 12), in.flags());
+    HairFileData out;
+    std::string error;
+    ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &out, &error)) << error;
+    EXPECT_TRUE(identical(in, out));
+    EXPECT_EQ(serialized(out), bytes);
+  }
+}
+
+TEST(HairFileRoundTrip, ThroughTheFileSystem) {
+  Parts parts;
+  parts.thickness = parts.transparency = parts.colors = true;
+  const HairFileData in = makeSmall(parts);
+  const std::string path = tempPath("wch_test_roundtrip.hair");
+  std::string error;
+  ASSERT_TRUE(writeHairFile(path, in, &error)) << error;
+  HairFileData out;
+  ASSERT_TRUE(readHairFile(path, &out, &error)) << error;
+  EXPECT_TRUE(identical(in, out));
+  std::remove(path.c_str());
+}
+
+TEST(HairFileRoundTrip, InfoKeepsAtMost87Characters) {
+  HairFileData in = makeSmall(Parts());
+  in.info = std::string(100, 'a');
+  const std::vector<uint8_t> bytes = serialized(in);
+  EXPECT_EQ(bytes[40 + 87], 0);
+  HairFileData out;
+  std::string error;
+  ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &out, &error)) << error;
+  EXPECT_EQ(out.info, std::string(87, 'a'));
+
+  // A foreign file may fill all 88 bytes without a NUL: read them all, no further.
+  std::vector<uint8_t> full = bytes;
+  for (size_t i = 0; i < kHairInfoBytes; ++i) full[40 + i] = 'b';
+  ASSERT_TRUE(parseHair(full.data(), full.size(), &out, &error)) << error;
+  EXPECT_EQ(out.info, std::string(88, 'b'));
+}
+
+TEST(HairFileRoundTrip, TrailingBytesAreIgnored) {
+  const HairFileData in = makeSmall(Parts());
+  std::vector<uint8_t> bytes = serialized(in);
+  bytes.push_back(0xab);
+  HairFileData out;
+  std::string error;
+  ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &out, &error)) << error;
+  EXPECT_TRUE(identical(in, out));
+}
+
+// ------------------------------------------------------------------------------ refusals
+
+TEST(HairFileRefusal, ShorterThanHeader) {
+  const std::vector<uint8_t> bytes(100, 0);
+  expectRefused(bytes, {"header", "100 bytes", "128"});
+  HairFileData out = sentinel();
+  std::string error;
+  EXPECT_FALSE(parseHair(nullptr, 0, &out, &error));
+  EXPECT_NE(error.find("header"), std::string::npos) << error;
+  EXPECT_TRUE(identical(out, sentinel()));
+}
+
+TEST(HairFileRefusal, BadMagic) {
+  std::vector<uint8_t> bytes = serialized(makeSmall(Parts()));
+  bytes[3] = 'X';
+  expectRefused(bytes, {"magic", "offset 0", "HAIR"});
+}
+
+TEST(HairFileRefusal, TruncatedArraysNameArrayOffsetAndSize) {
+  Parts parts;
+  parts.thickness = parts.transparency = parts.colors = true;
+  const std::vector<uint8_t> full = serialized(makeSmall(parts));  // 7 points, 2 strands.
+  // Offsets: segments 128 (4 bytes), points 132 (84), thickness 216 (28), transparency 244 (28),
+  // colours 272 (84), end 356.
+  ASSERT_EQ(full.size(), 356u);
+  struct Case {
+    size_t size;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {129, "segments array: needs 4 bytes at offset 128, file has only 129 bytes"},
+      {200, "points array: needs 84 bytes at offset 132, file has only 200 bytes"},
+      {216, "thickness array: needs 28 bytes at offset 216, file has only 216 bytes"},
+      {250, "transparency array: needs 28 bytes at offset 244, file has only 250 bytes"},
+      {355, "color array: needs 84 bytes at offset 272, file has only 355 bytes"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.message);
+    expectRefused(std::vector<uint8_t>(full.begin(), full.begin() + c.size), {c.message});
+  }
+}
+
+TEST(HairFileRefusal, EveryTruncationOfAValidFile) {
+  for (int mask : {0, 1, 15}) {
+    Parts parts;
+    parts.segments = (mask & 1) != 0;
+    parts.thickness = parts.transparency = parts.colors = mask == 15;
+    const std::vector<uint8_t> full = serialized(makeSmall(parts));
+    for (size_t size = 0; size < full.size(); ++size) {
+      // A fresh heap copy of exactly `size` bytes, so a sanitizer sees any over-read.
+      std::vector<uint8_t> cut(full.begin(), full.begin() + size);
+      HairFileData out = sentinel();
+      std::string error;
+      EXPECT_FALSE(parseHair(cut.data(), cut.size(), &out, &error)) << "size " << size;
+      EXPECT_FALSE(error.empty()) << "size " << size;
+      EXPECT_TRUE(identical(out, sentinel())) << "size " << size;
+    }
+  }
+}
+
+TEST(HairFileRefusal, MissingPointsFlag) {
+  std::vector<uint8_t> bytes = serialized(makeSmall(Parts()));
+  putU32(&bytes, 12, getU32(bytes, 12) & ~kHairHasPoints);
+  expectRefused(bytes, {"flags", "offset 12", "points"});
+}
+
+TEST(HairFileRefusal, SegmentCountsThatDoNotSumToThePointCount) {
+  const std::vector<uint8_t> good = serialized(makeSmall(Parts()));  // segments {2, 3}, 7 points.
+  std::vector<uint8_t> too_many = good;
+  putU16(&too_many, 130, 4);  // strand 1 would need 5 points: 8 > 7.
+  expectRefused(too_many, {"segments array", "strand 1", "8", "7"});
+  std::vector<uint8_t> too_few = good;
+  putU16(&too_few, 130, 2);  // 3 + 3 = 6 < 7.
+  expectRefused(too_few, {"segments array", "strand 1", "6", "7"});
+
+  // Without a segments array the default segment count must match.
+  std::vector<uint8_t> no_seg = serialized(makeSmall([] {
+    Parts p;
+    p.segments = false;
+    return p;
+  }()));
+  putU32(&no_seg, 16, 3);  // 2 x 4 = 8 != 6.
+  expectRefused(no_seg, {"default segment count", "8", "6"});
+}
+
+TEST(HairFileRefusal, ZeroStrands) {
+  std::vector<uint8_t> bytes = serialized(makeSmall(Parts()));
+  putU32(&bytes, 4, 0);
+  expectRefused(bytes, {"strand count", "offset 4", "0"});
+}
+
+TEST(HairFileRefusal, NonFiniteCoordinatesNameThePoint) {
+  const std::vector<uint8_t> good = serialized(makeSmall(Parts()));
+  std::vector<uint8_t> nan = good;
+  putF32(&nan, 132 + 12 * 4 + 4, std::numeric_limits<float>::quiet_NaN());  // point 4, y.
+  expectRefused(nan, {"point 4", "strand 1", "y coordinate"});
+  std::vector<uint8_t> inf = good;
+  putF32(&inf, 132, -std::numeric_limits<float>::infinity());  // point 0, x.
+  expectRefused(inf, {"point 0", "strand 0", "x coordinate"});
+}
+
+TEST(HairFileRefusal, AbsurdCountsBeforeAllocating) {
+  const std::vector<uint8_t> good = serialized(makeSmall(Parts()));
+  std::vector<uint8_t> bytes = good;
+  putU32(&bytes, 8, (1u << 28) + 1);
+  expectRefused(bytes, {"point count", "offset 8", "268435457", "limit"});
+  putU32(&bytes, 8, 0xffffffffu);
+  expectRefused(bytes, {"point count", "4294967295"});
+  bytes = good;
+  putU32(&bytes, 4, 0xffffffffu);
+  expectRefused(bytes, {"strand count", "4294967295"});
+  // Exactly at the limit the counts pass, and the missing bytes are reported instead.
+  bytes = good;
+  putU32(&bytes, 4, 1);
+  putU32(&bytes, 8, 1u << 28);
+  putU16(&bytes, 128, 0xffff);
+  expectRefused(bytes, {"strand 0", "65536", "268435456"});
+  bytes = good;
+  putU32(&bytes, 12, kHairHasPoints);
+  putU32(&bytes, 4, 1u << 20);
+  putU32(&bytes, 8, 1u << 28);
+  putU32(&bytes, 16, 255);
+  expectRefused(bytes, {"points array: needs 3221225472 bytes at offset 128"});
+}
+
+TEST(HairFileRefusal, StrandWithFewerThanTwoPoints) {
+  std::vector<uint8_t> bytes = serialized(makeSmall(Parts()));
+  putU16(&bytes, 128, 0);  // strand 0: 1 point.
+  expectRefused(bytes, {"strand 0", "at least 2 points"});
+
+  Parts parts;
+  parts.segments = false;
+  bytes = serialized(makeSmall(parts));
+  putU32(&bytes, 16, 0);
+  putU32(&bytes, 8, 2);  // 2 strands x 1 point.
+  expectRefused(bytes, {"default segment count", "at least 2 points"});
+}
+
+TEST(HairFileRefusal, RandomMutationsNeverCrash) {
+  Parts parts;
+  parts.thickness = parts.colors = true;
+  const std::vector<uint8_t> good = serialized(makeSmall(parts));
+  std::mt19937 rng(12345);
+  int accepted = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    std::vector<uint8_t> bytes = good;
+    const int flips = 1 + static_cast<int>(rng() % 4);
+    for (int f = 0; f < flips; ++f) {
+      bytes[rng() % bytes.size()] = static_cast<uint8_t>(rng());
+    }
+    bytes.resize(rng() % (bytes.size() + 8));
+    HairFileData out = sentinel();
+    std::string error;
+    if (parseHair(bytes.data(), bytes.size(), &out, &error)) {
+      ++accepted;
+      std::vector<uint8_t> again;
+      EXPECT_TRUE(serializeHair(out, &again, &error)) << error;
+    } else {
+      EXPECT_FALSE(error.empty());
+      EXPECT_TRUE(identical(out, sentinel()));
+    }
+  }
+  RecordProperty("accepted_mutations", accepted);
+}
+
+TEST(HairFileRefusal, SerializeRefusesInconsistentData) {
+  struct Case {
+    std::string name;
+    HairFileData data;
+    std::string needle;
+  };
+  std::vector<Case> cases;
+  {
+    HairFileData d;  // no strands.
+    cases.push_back({"zero strands", d, "zero strands"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.strand_offsets.back() = 6;
+    cases.push_back({"offsets end early", d, "7 points"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.strand_offsets[1] = 1;
+    cases.push_back({"one-point strand", d, "strand 0 has 1 points"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.thickness.assign(3, 1.f);
+    cases.push_back({"thickness size", d, "thickness has 3 values"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.colors.assign(7, 1.f);
+    cases.push_back({"colors size", d, "colors has 7 values"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.write_segments_array = false;
+    d.default_segments = 2;
+    cases.push_back({"non-uniform strands without segments array", d, "strand 1 has 3 segments"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.points[3 * 5 + 2] = std::numeric_limits<float>::infinity();
+    cases.push_back({"non-finite", d, "point 5 (strand 1)"});
+  }
+  {
+    HairFileData d = makeSmall(Parts());
+    d.points.push_back(1.f);
+    cases.push_back({"points not xyz", d, "not a multiple of 3"});
+  }
+  {
+    HairFileData d;
+    d.strand_offsets = {0, 65537};
+    d.points.assign(3 * 65537, 0.f);
+    cases.push_back({"too many segments for uint16", d, "strand 0 has 65536 segments"});
+  }
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    std::vector<uint8_t> bytes = {1, 2, 3};
+    std::string error;
+    EXPECT_FALSE(serializeHair(c.data, &bytes, &error));
+    EXPECT_NE(error.find(c.needle), std::string::npos) << error;
+    EXPECT_EQ(bytes, (std::vector<uint8_t>{1, 2, 3}));
+  }
+}
+
+TEST(HairFileRefusal, ReadMissingFileNamesThePath) {
+  HairFileData out = sentinel();
+  std::string error;
+  EXPECT_FALSE(readHairFile("/nonexistent/dir/x.hair", &out, &error));
+  EXPECT_NE(error.find("/nonexistent/dir/x.hair"), std::string::npos) << error;
+  EXPECT_TRUE(identical(out, sentinel()));
+}
+
+// ------------------------------------------------------------------------------ up axis
+
+TEST(HairUpAxis, ParseAcceptsTheSixAxesAndRefusesOthers) {
+  const std::vector<std::pair<std::string, UpAxis>> good = {
+      {"x", UpAxis::kXUp},     {"y", UpAxis::kYUp},     {"z", UpAxis::kZUp},
+      {"-x", UpAxis::kNegXUp}, {"-y", UpAxis::kNegYUp}, {"-z", UpAxis::kNegZUp},
+      {"+y", UpAxis::kYUp}};
+  for (const auto& g : good) {
+    UpAxis a = UpAxis::kZUp;
+    std::string error;
+    EXPECT_TRUE(parseUpAxis(g.first, &a, &error)) << g.first << ": " << error;
+    EXPECT_EQ(a, g.second) << g.first;
+  }
+  for (const std::string bad : {"", "w", "Y", "--y", "yy", "-"}) {
+    UpAxis a = UpAxis::kNegXUp;
+    std::string error;
+    EXPECT_FALSE(parseUpAxis(bad, &a, &error)) << bad;
+    EXPECT_NE(error.find("\"" + bad + "\""), std::string::npos) << error;
+    EXPECT_EQ(a, UpAxis::kNegXUp);
+  }
+  for (UpAxis a : {UpAxis::kXUp, UpAxis::kYUp, UpAxis::kZUp, UpAxis::kNegXUp, UpAxis::kNegYUp,
+                   UpAxis::kNegZUp}) {
+    UpAxis back = UpAxis::kZUp;
+    EXPECT_TRUE(parseUpAxis(upAxisName(a), &back, nullptr));
+    EXPECT_EQ(back, a);
+  }
+}
+
+TEST(HairUpAxis, EveryMappingIsAProperRotationTakingUpToZ) {
+  const std::vector<std::pair<UpAxis, Vec3>> axes = {
+      {UpAxis::kXUp, Vec3::UnitX()},     {UpAxis::kYUp, Vec3::UnitY()},
+      {UpAxis::kZUp, Vec3::UnitZ()},     {UpAxis::kNegXUp, -Vec3::UnitX()},
+      {UpAxis::kNegYUp, -Vec3::UnitY()}, {UpAxis::kNegZUp, -Vec3::UnitZ()}};
+  for (const auto& a : axes) {
+    SCOPED_TRACE(upAxisName(a.first));
+    const Mat3 R = upAxisRotation(a.first);
+    EXPECT_TRUE((R.transpose() * R).isApprox(Mat3::Identity(), 1e-15));
+    EXPECT_NEAR(R.determinant(), 1.0, 1e-15);
+    EXPECT_TRUE((R * a.second).isApprox(Vec3::UnitZ(), 1e-15));
+  }
+  // y up (glTF / Blender export / TressFX): file +z forward -> +x, file +x -> +y (left).
+  const Mat3 Ry = upAxisRotation(UpAxis::kYUp);
+  EXPECT_TRUE((Ry * Vec3(1, 2, 3)).isApprox(Vec3(3, 1, 2)));
+  EXPECT_TRUE((upAxisRotation(UpAxis::kZUp) * Vec3(1, 2, 3)).isApprox(Vec3(1, 2, 3)));
+  EXPECT_TRUE((upAxisRotation(UpAxis::kNegYUp) * Vec3(1, 2, 3)).isApprox(Vec3(3, -1, -2)));
+}
+
+// ------------------------------------------------------------------------------ resampling
+
+Vec3List helix(int n, double radius, double pitch, double turns) {
+  Vec3List p;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2.0 * M_PI * turns * i / (n - 1);
+    // Uneven parameter spacing so that the input edges differ.
+    const double u =
+        t * (1.0 + 0.3 * std::sin(0.37 * t)) / (1.0 + 0.3 * std::sin(0.37 * 2.0 * M_PI * turns));
+    p.emplace_back(radius * std::cos(u), radius * std::sin(u), -pitch * u / (2.0 * M_PI));
+  }
+  return p;
+}
+
+TEST(HairResample, EqualChordsOnAHelixWithUnevenInput) {
+  const Vec3List in = helix(40, 0.01, 0.03, 3.0);
+  for (int count : {2, 3, 16, 33, 100}) {
+    SCOPED_TRACE(count);
+    Vec3List out;
+    std::string error;
+    ASSERT_TRUE(resampleEqualChord(in, count, &out, &error)) << error;
+    ASSERT_EQ(static_cast<int>(out.size()), count);
+    EXPECT_EQ(out.front(), in.front());
+    EXPECT_EQ(out.back(), in.back());
+    expectEqualEdges(edgeLengths(out, 0, out.size()), 1e-9);
+  }
+}
+
+TEST(HairResample, DegenerateSegmentsAreSkippedAndZeroLengthIsRefused) {
+  Vec3List in = {Vec3(0, 0, 0), Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(1, 0, 0), Vec3(1, 2, 0)};
+  Vec3List out;
+  std::string error;
+  ASSERT_TRUE(resampleEqualChord(in, 7, &out, &error)) << error;
+  expectEqualEdges(edgeLengths(out, 0, out.size()), 1e-9);
+  EXPECT_EQ(out.back(), Vec3(1, 2, 0));
+
+  const Vec3List zero = {Vec3(1, 1, 1), Vec3(1, 1, 1), Vec3(1, 1, 1)};
+  out = {Vec3(9, 9, 9)};
+  EXPECT_FALSE(resampleEqualChord(zero, 4, &out, &error));
+  EXPECT_NE(error.find("length is 0"), std::string::npos) << error;
+  EXPECT_EQ(out.size(), 1u);
+  EXPECT_FALSE(resampleEqualChord(in, 1, &out, &error));
+  EXPECT_NE(error.find("below 2"), std::string::npos) << error;
+}
+
+TEST(HairResample, StraightLineGivesUniformSpacing) {
+  const Vec3List in = {Vec3(0, 0, 0), Vec3(0.1, 0, 0), Vec3(1, 0, 0)};
+  Vec3List out;
+  std::string error;
+  ASSERT_TRUE(resampleEqualChord(in, 11, &out, &error)) << error;
+  for (int i = 0; i < 11; ++i) EXPECT_NEAR(out[i].x(), 0.1 * i, 1e-12);
+}
+
+// ------------------------------------------------------------------------------ import
+
+TEST(HairImport, ScaleAxisOffsetAndRootNormals) {
+  HairFileData file;
+  file.strand_offsets = {0, 3};
+  file.points = {0, 10, 0, 0, 5, 1, 0, 0, 2};  // y up, cm: hangs down from y = 10.
+  HairImportOptions opts;
+  opts.scale = 0.01;
+  opts.up = UpAxis::kYUp;
+  opts.offset_m = Vec3(0, 0, 1);
+  opts.head_center_m = Vec3(0, 0, 0.5);
+  Groom g;
+  std::string error;
+  ASSERT_TRUE(importHairAsGroom(file, opts, &g, &error)) << error;
+  ASSERT_EQ(g.strandCount(), 1);
+  ASSERT_EQ(g.particleCount(), 3);
+  EXPECT_TRUE(g.points[0].isApprox(Vec3(0, 0, 1.1)));
+  EXPECT_TRUE(g.points[1].isApprox(Vec3(0.01, 0, 1.05)));
+  EXPECT_TRUE(g.points[2].isApprox(Vec3(0.02, 0, 1.0)));
+  EXPECT_TRUE(g.root_normals[0].isApprox(Vec3::UnitZ()));
+  std::string why;
+  EXPECT_TRUE(g.validate(&why)) << why;
+
+  // Root at the head centre: the first edge direction is used.
+  opts.head_center_m = g.points[0];
+  ASSERT_TRUE(importHairAsGroom(file, opts, &g, &error)) << error;
+  EXPECT_TRUE(g.root_normals[0].isApprox(Vec3(0.01, 0, -0.05).normalized()));
+}
+
+TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
+  HairFileData file = makeSmall(Parts());
+  Groom original;
+  original.strand_offsets = {0, 2};
+  original.points = {Vec3(1, 2, 3), Vec3(4, 5, 6)};
+  original.root_normals = {Vec3::UnitZ()};
+  struct Case {
+    std::string name;
+    HairFileData file;
+    HairImportOptions opts;
+    std::string needle;
+  };
+  std::vector<Case> cases;
+  HairImportOptions o;
+  o.scale = 0;
+  cases.push_back({"zero scale", file, o, "scale"});
+  o = HairImportOptions();
+  o.scale = std::numeric_limits<double>::infinity();
+  cases.push_back({"infinite scale", file, o, "scale"});
+  o = HairImportOptions();
+  o.resample_particles = 1;
+  cases.push_back({"resample 1", file, o, "resample_particles is 1"});
+  o = HairImportOptions();
+  o.offset_m.x() = std::nan("");
+  cases.push_back({"offset", file, o, "offset_m"});
+  {
+    HairFileData f = file;
+    for (int i = 3; i < 7; ++i) {
+      for (int k = 0; k < 3; ++k) f.points[3 * i + k] = 5.f;
+    }
+    HairImportOptions r;
+    r.resample_particles = 8;
+    cases.push_back({"zero-length strand", f, r, "strand 1: polyline total length is 0"});
+    cases.push_back({"zero-length edge", f, HairImportOptions(), "strand 1 edge 0 has length 0"});
+  }
+  {
+    HairFileData f = file;
+    f.strand_offsets = {0};
+    cases.push_back({"no strands", f, HairImportOptions(), "zero strands"});
+  }
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Groom g = original;
+    std::string error;
+    EXPECT_FALSE(importHairAsGroom(c.file, c.opts, &g, &error));
+    EXPECT_NE(error.find(c.needle), std::string::npos) << error;
+    EXPECT_EQ(g.strand_offsets, original.strand_offsets);
+    EXPECT_EQ(g.points, original.points);
+    EXPECT_EQ(g.root_normals, original.root_normals);
+  }
+}
+
+// ------------------------------------------------------------------------------ export
+
+TEST(HairExport, SaturationIsRecoverableAndColoured) {
+  const std::vector<uint32_t> offsets = {0, 3, 5};
+  Vec3List pos = {Vec3(0, 0, 1), Vec3(0, 0, 0.9), Vec3(0.01, 0, 0.8), Vec3(0.1, 0.2, 1),
+                  Vec3(0.1, 0.2, 0.95)};
+  const std::vector<double> sat = {0.0, 0.25, 1.0, 0.5, 0.125};
+  const HairFileData d = groomPositionsToHair(offsets, pos, &sat);
+  std::vector<uint8_t> bytes;
+  std::string error;
+  ASSERT_TRUE(serializeHair(d, &bytes, &error)) << error;
+  HairFileData back;
+  ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &back, &error)) << error;
+  ASSERT_EQ(back.strand_offsets, offsets);
+  ASSERT_EQ(back.transparency.size(), sat.size());
+  ASSERT_EQ(back.colors.size(), 3 * sat.size());
+  for (size_t i = 0; i < sat.size(); ++i) {
+    EXPECT_EQ(back.transparency[i], static_cast<float>(sat[i]));
+    EXPECT_FLOAT_EQ(back.colors[3 * i], static_cast<float>(1.0 - 0.7 * sat[i]));
+    EXPECT_FLOAT_EQ(back.colors[3 * i + 1], static_cast<float>(1.0 - 0.4 * sat[i]));
+    EXPECT_EQ(back.colors[3 * i + 2], 1.f);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(back.points[3 * i + k], static_cast<float>(pos[i][k]));
+  }
+  EXPECT_TRUE(back.thickness.empty());
+  EXPECT_NE(back.info.find("z up"), std::string::npos);
+
+  // Importing the export (metres, z up) gives the positions back to float precision.
+  Groom g;
+  ASSERT_TRUE(importHairAsGroom(back, HairImportOptions(), &g, &error)) << error;
+  for (size_t i = 0; i < pos.size(); ++i) EXPECT_TRUE(g.points[i].isApprox(pos[i], 1e-6));
+
+  const HairFileData no_sat = groomPositionsToHair(offsets, pos, nullptr);
+  EXPECT_TRUE(no_sat.transparency.empty());
+  EXPECT_TRUE(no_sat.colors.empty());
+}
+
+TEST(HairExport, BadInputGivesNoStrandsAndAMessage) {
+  const Vec3List pos = {Vec3(0, 0, 1), Vec3(0, 0, 0.9)};
+  const std::vector<double> sat = {0.5};
+  EXPECT_EQ(groomPositionsToHair({0, 2}, pos, &sat).strandCount(), 0);
+  EXPECT_EQ(groomPositionsToHair({0, 3}, pos, nullptr).strandCount(), 0);
+  HairFileData out = sentinel();
+  std::string error;
+  EXPECT_FALSE(groomPositionsToHairChecked({0, 2}, pos, &sat, &out, &error));
+  EXPECT_NE(error.find("saturation has 1 values"), std::string::npos) << error;
+  EXPECT_TRUE(identical(out, sentinel()));
+  std::vector<uint8_t> bytes;
+  EXPECT_FALSE(serializeHair(groomPositionsToHair({0, 3}, pos, nullptr), &bytes, &error));
+}
+
+// ------------------------------------------------------------------------------ real file
+
+TEST(HairSintelLite, ParsesWithExpectedCountsAndPrintsHeader) {
+  const std::string path = sintelPath();
+  if (!fileExists(path)) GTEST_SKIP() << "real data file missing: " << path;
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uint8_t> raw((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GE(raw.size(), kHairHeaderBytes);
+  HairFileData d;
+  std::string error;
+  ASSERT_TRUE(readHairFile(path, &d, &error)) << error;
+  EXPECT_EQ(d.strandCount(), 228);
+  EXPECT_EQ(d.pointCount(), 7296);
+  std::printf(
+      "sintel_lite.hair: flags 0x%x, default segments %u, default thickness %g, default "
+      "transparency %g, default colour (%g, %g, %g), info \"%s\", segments array %s, thickness %s, "
+      "transparency %s, colours %s\n",
+      getU32(raw, 12), d.default_segments, d.default_thickness, d.default_transparency,
+      d.default_color[0], d.default_color[1], d.default_color[2], d.info.c_str(),
+      d.write_segments_array ? "yes" : "no", d.thickness.empty() ? "no" : "yes",
+      d.transparency.empty() ? "no" : "yes", d.colors.empty() ? "no" : "yes");
+  // Only what the data README states: points only, 31 segments per strand by default.
+  EXPECT_NE(getU32(raw, 12) & kHairHasPoints, 0u);
+  EXPECT_FALSE(d.write_segments_array);
+  EXPECT_TRUE(d.thickness.empty());
+  EXPECT_TRUE(d.transparency.empty());
+  EXPECT_TRUE(d.colors.empty());
+  EXPECT_EQ(d.default_segments, 31u);
+  for (int s = 0; s < d.strandCount(); ++s) {
+    EXPECT_EQ(d.strand_offsets[s + 1] - d.strand_offsets[s], 32u) << "strand " << s;
+  }
+  // Re-serializing reproduces the file's arrays byte for byte.
+  std::vector<uint8_t> again;
+  ASSERT_TRUE(serializeHair(d, &again, &error)) << error;
+  ASSERT_EQ(again.size(), raw.size());
+  EXPECT_EQ(std::vector<uint8_t>(again.begin() + kHairHeaderBytes, again.end()),
+            std::vector<uint8_t>(raw.begin() + kHairHeaderBytes, raw.end()));
+}
+
+TEST(HairSintelLite, ImportsInMetresWithZUpAndResamplesToEqualEdges) {
+  const std::string path = sintelPath();
+  if (!fileExists(path)) GTEST_SKIP() << "real data file missing: " << path;
+  HairFileData d;
+  std::string error;
+  ASSERT_TRUE(readHairFile(path, &d, &error)) << error;
+  HairImportOptions opts;
+  opts.scale = 0.01;  // Blender units (the ~50-unit character) to metres.
+  opts.up = UpAxis::kYUp;
+  Groom g;
+  ASSERT_TRUE(importHairAsGroom(d, opts, &g, &error)) << error;
+  ASSERT_EQ(g.strandCount(), 228);
+  ASSERT_EQ(g.particleCount(), 7296);
+  std::string why;
+  EXPECT_TRUE(g.validate(&why)) << why;
+  Vec3 lo = g.points[0], hi = g.points[0];
+  for (const Vec3& p : g.points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vec3 extent = hi - lo;
+  std::printf(
+      "sintel_lite imported (m, REP-103): min (%.4f, %.4f, %.4f) max (%.4f, %.4f, %.4f) "
+      "extent (%.4f, %.4f, %.4f)\n",
+      lo.x(), lo.y(), lo.z(), hi.x(), hi.y(), hi.z(), extent.x(), extent.y(), extent.z());
+  // Head-sized hair at the top of a ~0.5 m character: extents of decimetres, top near 0.5 m.
+  EXPECT_GT(extent.maxCoeff(), 0.1);
+  EXPECT_LT(extent.maxCoeff(), 0.6);
+  EXPECT_GT(hi.z(), 0.4);
+  EXPECT_LT(hi.z(), 0.6);
+  // z is the long (vertical) axis, and the hair hangs down: roots above tips on average.
+  EXPECT_GT(extent.z(), extent.x());
+  EXPECT_GT(extent.z(), extent.y());
+  double drop = 0.0;
+  for (int s = 0; s < g.strandCount(); ++s) {
+    drop += g.points[g.strand_offsets[s]].z() - g.points[g.strand_offsets[s + 1] - 1].z();
+  }
+  EXPECT_GT(drop / g.strandCount(), 0.02);
+
+  opts.resample_particles = 16;
+  Groom r;
+  ASSERT_TRUE(importHairAsGroom(d, opts, &r, &error)) << error;
+  ASSERT_EQ(r.strandCount(), 228);
+  ASSERT_EQ(r.particleCount(), 228 * 16);
+  EXPECT_TRUE(r.validate(&why)) << why;
+  for (int s = 0; s < r.strandCount(); ++s) {
+    SCOPED_TRACE("strand " + std::to_string(s));
+    ASSERT_EQ(r.strandSize(s), 16);
+    EXPECT_EQ(r.points[r.strand_offsets[s]], g.points[g.strand_offsets[s]]);
+    EXPECT_EQ(r.points[r.strand_offsets[s + 1] - 1], g.points[g.strand_offsets[s + 1] - 1]);
+    expectEqualEdges(edgeLengths(r.points, r.strand_offsets[s], r.strand_offsets[s + 1]), 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace io
+}  // namespace wet_curly_hair
+
+// catkin_add_gtest links gtest without gtest_main.
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}

@@ -1,0 +1,126 @@
+// Scene YAML, the parameter table and its all-or-nothing updates.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/io/scene_setup.h"
+
+using namespace wet_curly_hair;
+using namespace wet_curly_hair::io;
+
+namespace {
+
+void expectRefused(const std::string& yaml, const std::string& key) {
+  SceneConfig scene = builtinScene();
+  const SceneConfig before = scene;
+  std::string why;
+  EXPECT_FALSE(parseSceneYaml(yaml, &scene, &why)) << yaml;
+  EXPECT_NE(why.find(key), std::string::npos) << "message '" << why << "' does not name " << key;
+  EXPECT_EQ(sceneToYaml(scene), sceneToYaml(before)) << "a refused scene changed the config";
+}
+
+}  // namespace
+
+TEST(Scene, ParsesNestedKeysAndVectors) {
+  SceneConfig scene;
+  std::string why;
+  ASSERT_TRUE(parseSceneYaml(R"(
+groom: {strands: 12, particles: 20, curl_radius_m: 0.008}
+solver:
+  gravity_m_s2: [0, 0, -3.7]
+  bend: {stiffness_n_per_m: 80}
+  collision: {head_enabled: false}
+motion: {type: spin, rate_hz: 1.5}
+head:
+  radii_m: {x: 0.1, y: 0.08, z: 0.12}
+  capsules:
+    - {name: neck, a_m: [0, 0, -0.05], b_m: [0, 0, -0.2], radius_m: 0.05}
+)", &scene, &why)) << why;
+  EXPECT_EQ(scene.groom.strands, 12);
+  EXPECT_EQ(scene.groom.particles, 20);
+  EXPECT_DOUBLE_EQ(scene.solver.gravity_m_s2.z(), -3.7);
+  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_per_m, 80.0);
+  EXPECT_FALSE(scene.solver.collision.head_enabled);
+  EXPECT_EQ(scene.motion.type, "spin");
+  EXPECT_DOUBLE_EQ(scene.head.ellipsoid.radii_m.y(), 0.08);
+  ASSERT_EQ(scene.head.capsules.size(), 1u);
+  EXPECT_DOUBLE_EQ(scene.head.capsules[0].radius_m, 0.05);
+}
+
+TEST(Scene, BadValuesAreRefusedWithTheKeyNamed) {
+  expectRefused("solver: {stretch: {stiffness_n_per_m: -5}}", "solver.stretch.stiffness_n_per_m");
+  expectRefused("solver: {bend: {damping_ns_per_m: .nan}}", "solver.bend.damping_ns_per_m");
+  expectRefused("groom: {particles: 0}", "groom.particles");
+  expectRefused("groom: {strands: 2.5}", "groom.strands");
+  expectRefused("groom: {stranz: 10}", "groom.stranz");
+  expectRefused("solver: {stretch: {stiffnes_n_per_m: 1}}", "solver.stretch.stiffnes_n_per_m");
+  expectRefused("motion: {type: wobble}", "motion.type");
+  expectRefused("solver: {gravity_m_s2: [0, 1]}", "solver.gravity_m_s2");
+  expectRefused("solver: {bend: {smoothing_edges: 2}}", "solver.bend.smoothing_edges");
+  expectRefused("solver: {collision: {head_enabled: maybe}}", "solver.collision.head_enabled");
+  expectRefused("head: {capsules: [{name: x, a_m: [0, 0], b_m: [0, 0, 1], radius_m: 1}]}",
+                "head.capsules[0].a_m");
+  expectRefused("run: {frame_s: 0}", "run.frame_s");
+  expectRefused("[1, 2, 3]", "scene");
+  expectRefused("groom: {strands: [unclosed", "YAML");
+}
+
+TEST(Scene, RoundTripsThroughYaml) {
+  SceneConfig scene = builtinScene();
+  scene.solver.core.stiffness_n_per_m = 77.25;
+  scene.groom_file.file = "some file.hair";
+  SceneConfig back;
+  std::string why;
+  ASSERT_TRUE(parseSceneYaml(sceneToYaml(scene), &back, &why)) << why << "\n" << sceneToYaml(scene);
+  EXPECT_EQ(sceneToYaml(back), sceneToYaml(scene));
+}
+
+TEST(Scene, BuiltinSceneMatchesTheShippedDefaultYaml) {
+  SceneConfig from_file;
+  std::string why;
+  ASSERT_TRUE(loadSceneFile(WCH_SOURCE_DIR "/config/scenes/default.yaml", &from_file, &why)) << why;
+  EXPECT_EQ(sceneToYaml(from_file), sceneToYaml(builtinScene()));
+}
+
+TEST(Scene, EveryShippedSceneLoadsAndBuilds) {
+  for (const char* name : {"default", "straight", "spin"}) {
+    SceneConfig scene;
+    std::string why;
+    const std::string path = std::string(WCH_SOURCE_DIR "/config/scenes/") + name + ".yaml";
+    ASSERT_TRUE(loadSceneFile(path, &scene, &why)) << why;
+    HairModel model;
+    EXPECT_TRUE(buildSceneModel(scene, &model, &why)) << name << ": " << why;
+  }
+}
+
+TEST(Parameters, SetIsAllOrNothingAndNamesTheBadOne) {
+  SceneConfig scene = builtinScene();
+  const std::string before = sceneToYaml(scene);
+  std::string why;
+  bool rebuild = false;
+  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.nope"}, {60.0, 1.0}, &scene,
+                               &rebuild, &why));
+  EXPECT_NE(why.find("solver.nope"), std::string::npos);
+  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.stretch.strain_limit"},
+                               {60.0, -1.0}, &scene, &rebuild, &why));
+  EXPECT_NE(why.find("solver.stretch.strain_limit"), std::string::npos);
+  EXPECT_FALSE(applyParameters({"groom.strands"}, {std::nan("")}, &scene, &rebuild, &why));
+  EXPECT_FALSE(applyParameters({"groom.strands"}, {1.0, 2.0}, &scene, &rebuild, &why));
+  EXPECT_FALSE(applyParameters({"motion.type"}, {1.0}, &scene, &rebuild, &why));
+  EXPECT_EQ(sceneToYaml(scene), before);
+  ASSERT_TRUE(applyParameters({"solver.bend.stiffness_n_per_m"}, {60.0}, &scene, &rebuild, &why))
+      << why;
+  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_per_m, 60.0);
+  EXPECT_FALSE(rebuild);
+  ASSERT_TRUE(applyParameters({"groom.strands"}, {40}, &scene, &rebuild, &why)) << why;
+  EXPECT_TRUE(rebuild);
+}
+
+TEST(Parameters, NamesAreUnique) {
+  SceneConfig scene;
+  const std::vector<ParamRef> table = parameterTable(&scene);
+  for (size_t i = 0; i < table.size(); ++i)
+    for (size_t j = i + 1; j < table.size(); ++j) EXPECT_NE(table[i].name, table[j].name);
+}

@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# The solver library and the file formats must never include a ROS header (design.md).
+set -u
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+hits=$(grep -rnE '#include *[<"](ros|tf2_ros|tf2|rosbag|roscpp|std_msgs|geometry_msgs|visualization_msgs)/' \
+  include/wet_curly_hair/core include/wet_curly_hair/io src/core src/io 2>/dev/null)
+if [ -n "$hits" ]; then
+  echo "ROS headers in the ROS-free core:"
+  echo "$hits"
+  echo "0 passed, 1 failed"
+  exit 1
+fi
+echo "1 passed, 0 failed"
