@@ -103,10 +103,61 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
   return true;
 }
 
+namespace {
+bool oneOf(const std::string& name, const std::string& value,
+           std::initializer_list<const char*> allowed, std::string* why) {
+  std::string list;
+  for (const char* a : allowed) {
+    if (value == a) return true;
+    list += (list.empty() ? "" : ", ") + std::string(a);
+  }
+  if (why) *why = name + ": '" + value + "' is not one of " + list;
+  return false;
+}
+}  // namespace
+
+bool CurlConfig::validate(const std::string& p, std::string* why) const {
+  return oneOf(p + "mode", mode, {"spring", "literal"}, why) &&
+         finiteInRange(p + "weight_n_per_m", weight_n_per_m, 0.0, 1e5, why) &&
+         finiteInRange(p + "helix_radius_m", helix_radius_m, 0.0, 1.0, why) &&
+         finiteInRange(p + "helix_pitch_m", helix_pitch_m, 0.0, 10.0, why) &&
+         finiteInRange(p + "rotation_time_constant_s", rotation_time_constant_s, 0.0, 100.0, why) &&
+         (helix_radius_m == 0.0 || helix_pitch_m > 0.0 ||
+          (why && (*why = p + "helix_pitch_m: must be > 0 when helix_radius_m > 0", false)));
+}
+
+bool CohesionConfig::validate(const std::string& p, std::string* why) const {
+  return oneOf(p + "mode", mode, {"ours", "lin", "kim", "off"}, why) &&
+         finiteInRange(p + "tightness", tightness, 0.0, 1.0, why) &&
+         finiteInRange(p + "radius_m", radius_m, 1e-4, 1.0, why) &&
+         finiteInRange(p + "lin_stiffness_n_per_m", lin_stiffness_n_per_m, 0.0, 1e5, why) &&
+         finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why);
+}
+
+bool AdhesionConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "peak_acceleration_m_s2", peak_acceleration_m_s2, 0.0, 1e4, why) &&
+         finiteInRange(p + "radius_m", radius_m, 1e-4, 1.0, why);
+}
+
+bool StiffnessConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "global_factor", global_factor, 0.5, 1.0, why) &&
+         finiteInRange(p + "wet_factor", wet_factor, 0.5, 1.0, why) &&
+         finiteInRange(p + "dry_factor", dry_factor, 0.5, 1.0, why) &&
+         finiteInRange(p + "reference_step_s", reference_step_s, 1e-7, 1.0, why);
+}
+
+bool ObstacleCollisionConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "offset_m", offset_m, 0.0, 0.1, why) &&
+         finiteInRange(p + "friction", friction, 0.0, 10.0, why) &&
+         finiteInRange(p + "margin_m", margin_m, 0.0, 1.0, why);
+}
+
 bool SolverConfig::validate(const std::string& p, std::string* why) const {
   return stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
          core.validate(p + "core.", why) && collision.validate(p + "collision.", why) &&
-         integrator.validate(p + "integrator.", why) &&
+         integrator.validate(p + "integrator.", why) && curl.validate(p + "curl.", why) &&
+         cohesion.validate(p + "cohesion.", why) && adhesion.validate(p + "adhesion.", why) &&
+         stiffness.validate(p + "stiffness.", why) && obstacle.validate(p + "obstacle.", why) &&
          finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
          finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
 }

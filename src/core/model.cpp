@@ -4,6 +4,7 @@
 
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/smoothing.h"
+#include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
 
@@ -47,6 +48,17 @@ bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& he
   return true;
 }
 
+Vec3List makeHelix(int count, double edge_m, double radius_m, double pitch_m) {
+  Vec3List h(count);
+  if (radius_m <= 0.0) {
+    for (int k = 0; k < count; ++k) h[k] = Vec3(0.0, 0.0, k * edge_m);
+    return h;
+  }
+  const double dt = helixAngleStepForChord(radius_m, pitch_m, edge_m);
+  for (int k = 0; k < count; ++k) h[k] = helixPoint(radius_m, pitch_m, k * dt);
+  return h;
+}
+
 void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const HeadShape& head,
                          const SolverConfig& config, HairModel* model) {
   HairModel m;
@@ -66,6 +78,8 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
   m.beta_core.assign(strands, 1.0);
   m.strand_length_m.assign(strands, 0.0);
   m.root_frame_head.assign(strands, Mat3::Identity());
+  m.helix_edge.assign(n, Vec3::Zero());
+  m.helix_axis.assign(strands, Vec3::UnitZ());
 
   Vec3List d, b;
   Mat3List frames;
@@ -102,6 +116,27 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
       m.bend_local_target[begin + i] = frames[i].transpose() * (p[i + 1] - p[i]);
       m.core_rest_m[begin + i] = b[i].norm();
     }
+    // The strand's own helix (A9), turned about its axis to the phase that best matches the rest
+    // pose once aligned (the twist about the root-to-tip axis is otherwise undetermined, A8).
+    const Vec3List helix = makeHelix(size, l, config.curl.helix_radius_m, config.curl.helix_pitch_m);
+    const Vec3 rest_axis = p[size - 1] - p[0];
+    Vec3 axis = (helix[size - 1] - helix[0]).normalized();
+    double phase = 0.0;
+    if (rest_axis.norm() > 1e-9 && config.curl.helix_radius_m > 0.0) {
+      const Mat3 to_rest = helixToHairRotation(axis, rest_axis.normalized());
+      double a = 0.0, c = 0.0;
+      for (int i = 0; i + 1 < size; ++i) {
+        const Vec3 h = helix[i + 1] - helix[i];
+        const Vec3 q = to_rest.transpose() * (p[i + 1] - p[i]);
+        a += h.x() * q.x() + h.y() * q.y();
+        c += h.x() * q.y() - h.y() * q.x();
+      }
+      phase = std::atan2(c, a);
+    }
+    const Mat3 turn = Eigen::AngleAxisd(phase, Vec3::UnitZ()).toRotationMatrix();
+    for (int i = 0; i + 1 < size; ++i) m.helix_edge[begin + i] = turn * (helix[i + 1] - helix[i]);
+    axis = (turn * (helix[size - 1] - helix[0])).normalized();
+    m.helix_axis[s] = axis;
   }
   *model = std::move(m);
 }

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/springs.h"
+#include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
 
@@ -27,13 +29,14 @@ int dampingPassCount(const HairModel& model, const SolverConfig& config, double 
 }
 
 double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                     int strand, double s0, double s1, double h, HairState* state,
-                     StepStats* stats) {
+                     int strand, const StrandFlags& flags, double s0, double s1, double h,
+                     HairState* state, StepStats* stats) {
   const int begin = model.strandBegin(strand);
   const int n = model.strandSize(strand);
   const int edges = n - 1;
   Vec3* p = &state->position[begin];
   Vec3* v = &state->velocity[begin];
+  const double* sigma = &state->saturation[begin];
   const double* inv_m = &model.inv_mass[begin];
   const double* m = &model.mass_kg[begin];
   const double* rest = &model.rest_edge_m[begin];
@@ -51,6 +54,10 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   const Pose pose1 = interpolate(inputs.head_start, inputs.head_end, s1);
   const Vec3 root_next = pose1.apply(model.rest_position_head[begin]);
   v[0] = (root_next - p[0]) / h;
+  // The head's rigid motion over this substep (world frame, about its origin).
+  const Eigen::AngleAxisd turn(pose1.rotation * pose0.rotation.conjugate());
+  const Vec3 omega = turn.axis() * (turn.angle() / h);
+  const Vec3 head_velocity = (pose1.translation - pose0.translation) / h;
 
   // 2. Smoothed curves, frames parallel-transported along the alpha_b curve, bend targets.
   const Mat3 root_frame = pose0.rotation.toRotationMatrix() * model.root_frame_head[strand];
@@ -62,6 +69,8 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   // 3. Elastic forces and gravity; segment convention F_i += f, F_{i+1} -= f (A1).
   const Vec3 g = config.gravity_m_s2;
   for (int i = 0; i < n; ++i) f[i] = m[i] * g;
+  if (flags.external_force)
+    for (int i = 0; i < n; ++i) f[i] += state->external_force[begin + i];
   const double ks = config.stretch.stiffness_n_per_m;
   const double kb = config.bend.stiffness_n_per_m;
   const double kc = config.core.stiffness_n_per_m;
@@ -71,6 +80,55 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
                     coreForce(b[i], model.core_rest_m[begin + i], kc);
     f[i] += fs;
     f[i + 1] -= fs;
+  }
+  // Curl exaggeration (eqs. 6-9, A6-A10), wet strands only: the strand's helix edges turned by
+  // M (helix root-to-tip onto the hair's, A7), pulled on with the saturation of the edge.
+  if (flags.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0) {
+    const Vec3 axis = p[n - 1] - p[0];
+    const double len = axis.norm();
+    // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
+    if (len > 1e-3 * model.strand_length_m[strand]) {
+      const Mat3 target_rotation = helixToHairRotation(model.helix_axis[strand], axis / len);
+      const double tc = config.curl.rotation_time_constant_s;
+      if (tc <= 0.0) {
+        state->curl_rotation[strand] = target_rotation;
+      } else {
+        const Quat from(state->curl_rotation[strand]), to(target_rotation);
+        state->curl_rotation[strand] =
+            from.slerp(1.0 - std::exp(-h / tc), to).normalized().toRotationMatrix();
+      }
+    }
+    const Mat3& rot = state->curl_rotation[strand];
+    const bool spring = config.curl.mode == "spring";
+    for (int i = 0; i < edges; ++i) {
+      const double s = 0.5 * (sigma[i] + sigma[i + 1]);
+      if (s <= 0.0) continue;
+      const Vec3 u = curlForce(rot * model.helix_edge[begin + i], p[i + 1] - p[i],
+                               config.curl.weight_n_per_m, s, spring);
+      f[i + 1] += u;
+      f[i] -= u;
+    }
+    stats->curl_particle_substeps += n;
+  }
+  // Adhesion (eqs. 11-12, A15-A16): wet particles between h/2 and h from an obstacle surface are
+  // pulled toward it, with peak acceleration sigma * peak at 3h/4.
+  const Obstacles* obstacles = inputs.obstacles;
+  const bool obstacle_stage = flags.near_obstacle && obstacles && !obstacles->empty();
+  if (obstacle_stage && flags.wet && config.adhesion.enabled &&
+      config.adhesion.peak_acceleration_m_s2 > 0.0) {
+    const double hk = config.adhesion.radius_m;
+    const bool literal = config.adhesion.literal_polynomial;
+    const double scale = config.adhesion.peak_acceleration_m_s2 / adhesionKernelPeak(hk, literal);
+    for (int i = 1; i < n; ++i) {
+      if (sigma[i] <= 0.0) continue;
+      ++stats->adhesion_particle_substeps;
+      Vec3 normal;
+      const double dist = obstacles->distance(p[i], &normal);
+      const double a = adhesionKernel(dist, hk, literal);
+      if (a <= 0.0) continue;
+      f[i] -= (sigma[i] * m[i] * scale * a) * normal;
+      ++stats->adhesion_active;
+    }
   }
   // 4. Velocity update (semi-implicit Euler), roots excluded.
   for (int i = 1; i < n; ++i) v[i] += (h * inv_m[i]) * f[i];
@@ -86,8 +144,6 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   // would drag on, bending steadily spinning hair by c_b omega / k_b (measured: 0.6 % of the
   // strand length at 0.25 rev/s). Subtracting omega x e makes the damping vanish on rigid
   // co-rotation and leaves it unchanged on a still head.
-  const Eigen::AngleAxisd turn(pose1.rotation * pose0.rotation.conjugate());
-  const Vec3 omega = turn.axis() * (turn.angle() / h);
   for (int pass = 0; pass < passes; ++pass) {
     if (cc > 0.0) smoothDifferences(v, n, model.beta_core[strand], nu);
     for (int i = 0; i < n; ++i) f[i].setZero();
@@ -111,6 +167,26 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     }
   }
 
+  // 6. Stiffness, eq. (13) (A17): v <- (xi zeta_i)^(h / h_ref) v, on the velocity relative to the
+  // head's rigid motion (or the absolute velocity, literal option).
+  const StiffnessConfig& st = config.stiffness;
+  if (st.global_factor < 1.0 || (flags.wet && st.wet_factor < 1.0) || st.dry_factor < 1.0) {
+    const double dry = stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h,
+                                       st.reference_step_s);
+    for (int i = 1; i < n; ++i) {
+      const double k = sigma[i] > 0.0 ? stiffnessFactor(st.global_factor, st.wet_factor,
+                                                         st.dry_factor, sigma[i], h,
+                                                         st.reference_step_s)
+                                      : dry;
+      if (st.relative_to_head) {
+        const Vec3 carried = head_velocity + omega.cross(p[i] - pose0.translation);
+        v[i] = carried + k * (v[i] - carried);
+      } else {
+        v[i] *= k;
+      }
+    }
+  }
+
   // 8. Position update.
   p[0] = root_next;
   for (int i = 1; i < n; ++i) p[i] += h * v[i];
@@ -129,6 +205,18 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       const Vec3 v_head = (p[i] - pose0.apply(x_head)) / h;
       collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
       ++stats->head_contacts;
+    }
+  }
+  // External obstacles (static in the world), same response, their own offset and friction.
+  if (obstacle_stage && config.obstacle.enabled) {
+    const double delta = config.obstacle.offset_m;
+    const double mu = config.obstacle.friction;
+    for (int i = 1; i < n; ++i) {
+      ++stats->obstacle_particle_substeps;
+      Vec3 normal;
+      const double dist = obstacles->distance(p[i], &normal);
+      if (collideParticle(dist, normal, delta, mu, Vec3::Zero(), &p[i], &v[i]))
+        ++stats->obstacle_contacts;
     }
   }
 
@@ -150,10 +238,8 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
 
 namespace {
 
-/// True when every position and velocity of the strand is finite and every edge within the
-/// repair bound; counts non-finite scalars into *nonfinite.
-bool strandHealthy(const HairModel& model, const SolverConfig& config, int s,
-                   const HairState& state, uint64_t* nonfinite) {
+/// True when every position and velocity of the strand is finite; counts non-finite scalars.
+bool strandFinite(const HairModel& model, int s, const HairState& state, uint64_t* nonfinite) {
   const int begin = model.strandBegin(s);
   const int n = model.strandSize(s);
   bool ok = true;
@@ -178,6 +264,40 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
   return true;
 }
 
+StrandFlags strandFlags(const HairModel& model, const SolverConfig& config,
+                        const StepInputs& inputs, int s, const HairState& state) {
+  StrandFlags flags;
+  const int begin = model.strandBegin(s);
+  for (int i = begin; i < begin + model.strandSize(s); ++i) flags.wet = flags.wet || state.saturation[i] > 0.0;
+  if (inputs.obstacles && !inputs.obstacles->empty()) {
+    // The strand stays within its length of its root during the step (roots move with the head:
+    // test both ends of the root's path).
+    Vec3 normal;
+    const double reach = model.strand_length_m[s] + config.obstacle.margin_m +
+                         std::max(config.obstacle.offset_m, config.adhesion.radius_m);
+    const Vec3 r0 = inputs.head_start.apply(model.rest_position_head[begin]);
+    const Vec3 r1 = inputs.head_end.apply(model.rest_position_head[begin]);
+    const double travel = (r1 - r0).norm();
+    flags.near_obstacle = inputs.obstacles->distance(r0, &normal) <= reach + travel;
+  }
+  return flags;
+}
+
+/// Restores strand s to its last good state, carried from the start pose to the end pose.
+void repairStrand(const HairModel& model, const StepInputs& inputs, int s, HairState* state) {
+  const int begin = model.strandBegin(s);
+  const int n = model.strandSize(s);
+  const Pose& now = inputs.head_end;
+  const Pose& before = inputs.head_start;
+  for (int i = begin; i < begin + n; ++i) {
+    const Vec3 x_head = before.applyInverse(state->last_good_position[i]);
+    state->position[i] = now.apply(x_head);
+    state->velocity[i] = now.rotate(before.rotation.conjugate() * state->last_good_velocity[i]);
+    state->last_good_position[i] = state->position[i];
+    state->last_good_velocity[i] = state->velocity[i];
+  }
+}
+
 }  // namespace
 
 void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
@@ -191,16 +311,38 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     return;
   }
   const double h = dt_s / nsub;
-  for (int s = 0; s < model.strandCount(); ++s) {
-    double max_strain = 0.0;
+  const int strands = model.strandCount();
+  const bool force_cohesion = config.cohesion.mode == "lin" || config.cohesion.mode == "kim";
+  if (force_cohesion) {
+    // The force-based baselines couple strands: substeps outside, strands inside, the
+    // cross-strand forces evaluated at every substep.
     for (int k = 0; k < nsub; ++k) {
-      const double strain = substepStrand(model, config, inputs, s, double(k) / nsub,
-                                          double(k + 1) / nsub, h, state, &local);
-      max_strain = std::max(max_strain, strain);
+      computeCohesionForces(model, config.cohesion, state);
+      for (int s = 0; s < strands; ++s) {
+        StrandFlags flags = strandFlags(model, config, inputs, s, *state);
+        flags.external_force = true;
+        const double strain = substepStrand(model, config, inputs, s, flags, double(k) / nsub,
+                                            double(k + 1) / nsub, h, state, &local);
+        local.max_strain_before_limit = std::max(local.max_strain_before_limit, strain);
+      }
     }
-    local.max_strain_before_limit = std::max(local.max_strain_before_limit, max_strain);
+  } else {
+    // Strands couple only through per-step outputs: each strand runs all its substeps at once.
+    for (int s = 0; s < strands; ++s) {
+      const StrandFlags flags = strandFlags(model, config, inputs, s, *state);
+      local.wet_strands += flags.wet;
+      local.strands_near_obstacles += flags.near_obstacle;
+      for (int k = 0; k < nsub; ++k) {
+        const double strain = substepStrand(model, config, inputs, s, flags, double(k) / nsub,
+                                            double(k + 1) / nsub, h, state, &local);
+        local.max_strain_before_limit = std::max(local.max_strain_before_limit, strain);
+      }
+    }
+  }
+  // Detect, repair and count numerical trouble, strand by strand (style.md §11).
+  for (int s = 0; s < strands; ++s) {
     uint64_t nonfinite = 0;
-    const bool finite = strandHealthy(model, config, s, *state, &nonfinite);
+    const bool finite = strandFinite(model, s, *state, &nonfinite);
     const bool strain_ok = finite && strandStrainOk(model, config, s, *state);
     const int begin = model.strandBegin(s);
     const int n = model.strandSize(s);
@@ -209,16 +351,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
       std::copy_n(&state->velocity[begin], n, &state->last_good_velocity[begin]);
       continue;
     }
-    // Repair: restore the strand's last good state, carried to the current head pose.
-    const Pose& now = inputs.head_end;
-    const Pose& before = inputs.head_start;
-    for (int i = begin; i < begin + n; ++i) {
-      const Vec3 x_head = before.applyInverse(state->last_good_position[i]);
-      state->position[i] = now.apply(x_head);
-      state->velocity[i] = now.rotate(before.rotation.conjugate() * state->last_good_velocity[i]);
-      state->last_good_position[i] = state->position[i];
-      state->last_good_velocity[i] = state->velocity[i];
-    }
+    repairStrand(model, inputs, s, state);
     ++local.repaired_strands;
     if (!finite) {
       ++state->warnings.nonfinite_repairs;
@@ -227,6 +360,8 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
       ++state->warnings.strain_repairs;
     }
   }
+  // Stable cohesion (eq. 10): display positions after the step, never fed back (A14).
+  local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state);
   state->time_s += dt_s;
   ++state->step_count;
   state->substep_count += nsub;

@@ -1,5 +1,7 @@
 #include "wet_curly_hair/core/state.h"
 
+#include "wet_curly_hair/core/frames.h"
+
 namespace wet_curly_hair {
 
 void StrandScratch::resize(int n) {
@@ -11,11 +13,29 @@ void StrandScratch::resize(int n) {
   target.assign(n, Vec3::Zero());
 }
 
+void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_offsets) {
+  size_t table = 1;
+  while (table < 2 * static_cast<size_t>(std::max(particles, 1))) table <<= 1;
+  cell_start.assign(table + 1, 0);
+  sorted.assign(particles, 0);
+  cell_of.assign(particles, 0);
+  strand_of.assign(particles, 0);
+  for (size_t s = 0; s + 1 < strand_offsets.size(); ++s)
+    for (uint32_t i = strand_offsets[s]; i < strand_offsets[s + 1]; ++i) strand_of[i] = s;
+}
+
 void resetState(const HairModel& model, const Pose& head_pose, const Twist& head_twist,
                 HairState* state) {
   for (int i = 0; i < model.particleCount(); ++i) {
     state->position[i] = head_pose.apply(model.rest_position_head[i]);
     state->velocity[i] = head_twist.velocityAt(state->position[i], head_pose.translation);
+  }
+  state->wet_position = state->position;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    const int begin = model.strandBegin(s);
+    const Vec3 axis = state->position[begin + model.strandSize(s) - 1] - state->position[begin];
+    state->curl_rotation[s] =
+        axis.norm() > 1e-12 ? minimalRotation(model.helix_axis[s], axis.normalized()) : Mat3::Identity();
   }
   state->last_good_position = state->position;
   state->last_good_velocity = state->velocity;
@@ -27,6 +47,12 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.position.assign(n, Vec3::Zero());
   state.velocity.assign(n, Vec3::Zero());
   state.saturation.assign(n, 0.0);
+  state.wet_position.assign(n, Vec3::Zero());
+  state.curl_rotation.assign(model.strandCount(), Mat3::Identity());
+  state.external_force.assign(n, Vec3::Zero());
+  state.density.assign(n, 0.0);
+  state.normal_scratch.assign(n, Vec3::Zero());
+  state.grid.resize(n, model.strand_offsets);
   state.scratch.resize(model.max_strand_size);
   resetState(model, head_pose, head_twist, &state);
   return state;

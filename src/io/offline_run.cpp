@@ -5,6 +5,8 @@
 #include <sys/stat.h>
 
 #include "wet_curly_hair/core/diagnostics.h"
+#include "wet_curly_hair/core/metrics.h"
+#include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/json.h"
@@ -34,6 +36,17 @@ std::string RunSummary::toJson() const {
       .add("strain_limited_edges", static_cast<unsigned long long>(strain_limited_edges))
       .add("head_contacts", static_cast<unsigned long long>(head_contacts))
       .add("hair_frames_written", hair_frames_written)
+      .add("clump_distance_m", clump_distance_m)
+      .add("jitter", jitter_m)
+      .add("tangles", tangles)
+      .add("max_tangles", max_tangles)
+      .add("curl_radius_tip_m", curl_radius_tip_m)
+      .add("curl_pitch_tip_m", curl_pitch_tip_m)
+      .add("obstacle_contact_s", obstacle_contact_s)
+      .add("max_strand_extension", max_strand_extension)
+      .add("adhesion_active", static_cast<unsigned long long>(adhesion_active))
+      .add("obstacle_contacts", static_cast<unsigned long long>(obstacle_contacts))
+      .add("cohesion_particles", static_cast<unsigned long long>(cohesion_particles))
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
@@ -47,7 +60,8 @@ bool writeFrame(const std::string& dir, int frame, const HairModel& model, const
                 std::string* why) {
   char name[64];
   std::snprintf(name, sizeof(name), "/frame_%05d.hair", frame);
-  HairFileData data = groomPositionsToHair(model.strand_offsets, state.position, &state.saturation);
+  HairFileData data =
+      groomPositionsToHair(model.strand_offsets, state.wet_position, &state.saturation);
   return writeHairFile(dir + name, data, why);
 }
 
@@ -72,13 +86,28 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   RunSummary s;
   const HeadMotionConfig& motion = scene.motion;
   HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
+  if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
+    SaturationCommand wet;
+    wet.root_value = scene.saturation.root;
+    wet.tip_value = scene.saturation.tip;
+    applySaturation(model, wet, headPose(motion, 0.0), &state);
+  }
+  Obstacles obstacles;
+  obstacles.analytic = scene.obstacles;
   s.strands = model.strandCount();
   s.particles = model.particleCount();
   const double frame = scene.run.frame_s;
   const long frames = std::lround(scene.run.seconds / frame);
   s.substep_s = frame / substepCount(scene.solver, frame);
+  // Output positions in the head frame for the jitter (three frames kept, allocated once).
+  Vec3List out_prev2(model.particleCount()), out_prev1(model.particleCount());
+  double jitter_sum = 0.0;
+  long jitter_count = 0;
+  std::vector<double> contact_time(model.strandCount(), 0.0);
+  NeighborGrid metric_grid;
+  metric_grid.resize(model.particleCount(), model.strand_offsets);
 
-  auto record = [&](double t, const Pose& pose) {
+  auto record = [&](long f, double t, const Pose& pose) {
     const EnergyParts e = energy(model, scene.solver, pose, &state);
     s.time_s.push_back(t);
     s.energy.push_back(e.total());
@@ -88,8 +117,36 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     s.max_strain = std::max(s.max_strain, strain.max);
     s.mean_strain += strain.mean;
     s.max_penetration_m = std::max(s.max_penetration_m, maxHeadPenetration(model, state, pose));
+    for (int st = 0; st < model.strandCount(); ++st) {
+      const int b = model.strandBegin(st), n = model.strandSize(st);
+      double arc = 0.0;
+      bool touching = false;
+      for (int i = b; i < b + n; ++i) {
+        if (i + 1 < b + n) arc += (state.position[i + 1] - state.position[i]).norm();
+        if (!obstacles.empty()) {
+          Vec3 normal;
+          touching = touching || obstacles.distance(state.position[i], &normal) <=
+                                     scene.solver.adhesion.radius_m;
+        }
+      }
+      s.max_strand_extension = std::max(s.max_strand_extension, arc / model.strand_length_m[st] - 1.0);
+      if (touching && f > 0) contact_time[st] += frame;
+    }
+    for (int i = 0; i < model.particleCount(); ++i) {
+      const Vec3 x = pose.applyInverse(state.wet_position[i]);
+      if (f >= 2) {
+        jitter_sum += (x - 2.0 * out_prev1[i] + out_prev2[i]).squaredNorm();
+        ++jitter_count;
+      }
+      out_prev2[i] = out_prev1[i];
+      out_prev1[i] = x;
+    }
+    if (f % 10 == 0) {
+      s.max_tangles = std::max(
+          s.max_tangles, tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid));
+    }
   };
-  record(0.0, headPose(motion, 0.0));
+  record(0, 0.0, headPose(motion, 0.0));
   if (!options.hair_frames_dir.empty()) {
     if (!writeFrame(options.hair_frames_dir, 0, model, state, why)) return false;
     ++s.hair_frames_written;
@@ -99,6 +156,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     StepInputs in;
     in.head_start = headPose(motion, f * frame);
     in.head_end = headPose(motion, (f + 1) * frame);
+    in.obstacles = obstacles.empty() ? nullptr : &obstacles;
     StepStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     step(model, scene.solver, in, frame, &state, &stats);
@@ -107,13 +165,29 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     s.velocity_clamps += stats.velocity_clamps;
     s.strain_limited_edges += stats.strain_limited_edges;
     s.head_contacts += stats.head_contacts;
-    record((f + 1) * frame, in.head_end);
+    s.adhesion_active += stats.adhesion_active;
+    s.obstacle_contacts += stats.obstacle_contacts;
+    s.cohesion_particles += stats.cohesion_particles;
+    record(f + 1, (f + 1) * frame, in.head_end);
     if (!options.hair_frames_dir.empty() && (f + 1) % options.hair_stride == 0) {
       if (!writeFrame(options.hair_frames_dir, static_cast<int>(f + 1), model, state, why))
         return false;
       ++s.hair_frames_written;
     }
   }
+  s.jitter_m = jitter_count ? std::sqrt(jitter_sum / jitter_count) : 0.0;
+  s.clump_distance_m = clumpDistance(model, state.wet_position, state.saturation,
+                                     4.0 * scene.solver.cohesion.radius_m, &metric_grid);
+  s.tangles = tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid);
+  s.max_tangles = std::max(s.max_tangles, s.tangles);
+  const CurlShape curl = tipCurlShape(model, state.position);
+  s.curl_radius_tip_m = curl.radius_m;
+  s.curl_pitch_tip_m = curl.pitch_m;
+  double contact_sum = 0.0;
+  int touched = 0;
+  for (double c : contact_time)
+    if (c > 0.0) contact_sum += c, ++touched;
+  s.obstacle_contact_s = touched ? contact_sum / touched : 0.0;
   s.steps = state.step_count;
   s.sim_s = frames * frame;
   s.wall_s = wall;

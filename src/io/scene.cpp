@@ -14,15 +14,20 @@ namespace io {
 bool RunConfig::validate(const std::string& p, std::string* why) const {
   using namespace config_check;
   return finiteInRange(p + "seconds", seconds, 0.0, 1e7, why) &&
-         finiteInRange(p + "frame_s", frame_s, 1e-5, 1.0, why);
+         finiteInRange(p + "frame_s", frame_s, 1e-5, 1.0, why) &&
+         finiteInRange(p + "strand_radius_m", strand_radius_m, 0.0, 0.1, why);
 }
 
 bool SceneConfig::validate(std::string* why) const {
   using namespace config_check;
   if (!groom.validate("groom.", why) || !head.validate("head.", why) ||
       !solver.validate("solver.", why) || !motion.validate("motion.", why) ||
-      !run.validate("run.", why))
+      !run.validate("run.", why) ||
+      !finiteInRange("saturation.root", saturation.root, 0.0, 1.0, why) ||
+      !finiteInRange("saturation.tip", saturation.tip, 0.0, 1.0, why))
     return false;
+  for (size_t k = 0; k < obstacles.size(); ++k)
+    if (!obstacles[k].validate("obstacles[" + std::to_string(k) + "].", why)) return false;
   if (!groom_file.file.empty()) {
     if (!positive("groom_file.scale", groom_file.scale, why) ||
         !finiteVec("groom_file.offset_m", groom_file.offset_m, why))
@@ -106,6 +111,36 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);
   i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
   addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
+  b("solver.curl.enabled", &c.curl.enabled, "curl exaggeration on wet particles (eqs. 6-9)", false);
+  str("solver.curl.mode", &c.curl.mode, "spring (A10 restoring) or literal (eq. 9 couple)", false);
+  d("solver.curl.weight_n_per_m", &c.curl.weight_n_per_m, "w_h, N/m", false);
+  d("solver.curl.helix_radius_m", &c.curl.helix_radius_m, "wet helix radius r, m (eq. 6)", true);
+  d("solver.curl.helix_pitch_m", &c.curl.helix_pitch_m, "wet helix rise per turn, m", true);
+  d("solver.curl.rotation_time_constant_s", &c.curl.rotation_time_constant_s,
+    "M follows the strand axis with this time constant, s (0: at once)", false);
+  str("solver.cohesion.mode", &c.cohesion.mode, "ours (eq. 10), lin, kim or off", false);
+  d("solver.cohesion.tightness", &c.cohesion.tightness, "lambda of eq. 10", false);
+  d("solver.cohesion.radius_m", &c.cohesion.radius_m, "kernel support h, m", false);
+  d("solver.cohesion.lin_stiffness_n_per_m", &c.cohesion.lin_stiffness_n_per_m,
+    "lin baseline: pair attraction, N/m", false);
+  d("solver.cohesion.kim_surface_tension", &c.cohesion.kim_surface_tension,
+    "kim baseline: Akinci cohesion coefficient", false);
+  b("solver.adhesion.enabled", &c.adhesion.enabled, "adhesion of wet hair to obstacles", false);
+  d("solver.adhesion.peak_acceleration_m_s2", &c.adhesion.peak_acceleration_m_s2,
+    "peak adhesion acceleration at saturation 1, m/s^2", false);
+  d("solver.adhesion.radius_m", &c.adhesion.radius_m, "Akinci kernel h, m", false);
+  b("solver.adhesion.literal_polynomial", &c.adhesion.literal_polynomial,
+    "eq. 12 without the 1/4 power (A15)", false);
+  d("solver.stiffness.global_factor", &c.stiffness.global_factor, "xi per reference step", false);
+  d("solver.stiffness.wet_factor", &c.stiffness.wet_factor, "gamma0 per reference step", false);
+  d("solver.stiffness.dry_factor", &c.stiffness.dry_factor, "gamma1 per reference step", false);
+  d("solver.stiffness.reference_step_s", &c.stiffness.reference_step_s, "reference step, s", false);
+  b("solver.stiffness.relative_to_head", &c.stiffness.relative_to_head,
+    "damp velocity relative to the head's motion", false);
+  b("solver.obstacle.enabled", &c.obstacle.enabled, "collide with obstacles", false);
+  d("solver.obstacle.offset_m", &c.obstacle.offset_m, "obstacle collision offset, m", false);
+  d("solver.obstacle.friction", &c.obstacle.friction, "obstacle Coulomb friction", false);
+  d("solver.obstacle.margin_m", &c.obstacle.margin_m, "obstacle reach margin, m", false);
   HeadMotionConfig& m = s->motion;
   str("motion.type", &m.type, "still, spin, nod, shake, teleport, linear", false);
   d("motion.rate_hz", &m.rate_hz, "spin rate, rev/s", false);
@@ -118,6 +153,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   addVec(&t, "motion.axis", &m.axis, "spin axis / translation direction", false);
   d("run.seconds", &s->run.seconds, "simulated time, s", false);
   d("run.frame_s", &s->run.frame_s, "output frame, s", false);
+  d("run.strand_radius_m", &s->run.strand_radius_m, "strand radius for the tangle count, m", false);
+  d("saturation.root", &s->saturation.root, "initial saturation at the roots, [0, 1]", false);
+  d("saturation.tip", &s->saturation.tip, "initial saturation at the tips, [0, 1]", false);
   return t;
 }
 
@@ -283,9 +321,25 @@ struct YamlWalker {
     return true;
   }
 
+  bool obstacleList(const std::string& key, const YAML::Node& node) {
+    if (!node.IsSequence()) return fail(key + ": must be a list of obstacle specs");
+    std::vector<AnalyticObstacle> list;
+    for (size_t k = 0; k < node.size(); ++k) {
+      const std::string p = key + "[" + std::to_string(k) + "]";
+      if (!node[k].IsScalar()) return fail(p + ": must be a spec string like sphere:x=0,y=0,z=0,r=0.1");
+      AnalyticObstacle o;
+      std::string inner;
+      if (!AnalyticObstacle::parse(node[k].Scalar(), &o, &inner)) return fail(p + ": " + inner);
+      list.push_back(o);
+    }
+    scene->obstacles = list;
+    return true;
+  }
+
   bool walk(const std::string& prefix, const YAML::Node& node) {
     if (node.IsNull()) return prefix.empty() ? true : fail(prefix + ": has no value");
     if (prefix == "head.capsules") return capsules(prefix, node);
+    if (prefix == "obstacles") return obstacleList(prefix, node);
     if (node.IsMap()) {
       for (const auto& kv : node) {
         std::string sub;
@@ -392,7 +446,47 @@ std::string sceneToYaml(const SceneConfig& scene_in) {
       open.resize(1);
     }
   }
+  if (!scene.obstacles.empty()) {
+    out << "obstacles:  # world frame, m\n";
+    for (const AnalyticObstacle& o : scene.obstacles) out << "  - \"" << obstacleSpec(o) << "\"\n";
+  }
   return out.str();
+}
+
+std::string dottedToYaml(const std::string& name, const std::string& value) {
+  std::string out, closing;
+  std::stringstream parts(name);
+  std::string part;
+  std::vector<std::string> keys;
+  while (std::getline(parts, part, '.')) keys.push_back(part);
+  for (size_t k = 0; k < keys.size(); ++k) {
+    out += "{" + keys[k] + ": ";
+    closing += "}";
+  }
+  // Quote nothing: the value is YAML text; a bare empty value would be null, so keep "".
+  return out + (value.empty() ? "\"\"" : value) + closing;
+}
+
+std::string obstacleSpec(const AnalyticObstacle& o) {
+  std::string s;
+  const Vec3& c = o.center_m;
+  switch (o.shape) {
+    case AnalyticObstacle::Shape::kSphere:
+      s = "sphere:x=" + shortest(c.x()) + ",y=" + shortest(c.y()) + ",z=" + shortest(c.z()) +
+          ",r=" + shortest(o.radius_m);
+      break;
+    case AnalyticObstacle::Shape::kBox:
+      s = "box:x=" + shortest(c.x()) + ",y=" + shortest(c.y()) + ",z=" + shortest(c.z()) +
+          ",hx=" + shortest(o.half_extents_m.x()) + ",hy=" + shortest(o.half_extents_m.y()) +
+          ",hz=" + shortest(o.half_extents_m.z());
+      break;
+    case AnalyticObstacle::Shape::kPlane:
+      s = "plane:x=" + shortest(c.x()) + ",y=" + shortest(c.y()) + ",z=" + shortest(c.z()) +
+          ",nx=" + shortest(o.normal.x()) + ",ny=" + shortest(o.normal.y()) +
+          ",nz=" + shortest(o.normal.z());
+      break;
+  }
+  return s;
 }
 
 SceneConfig builtinScene() {

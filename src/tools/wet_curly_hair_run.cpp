@@ -16,6 +16,8 @@ const char* kUsage =
     "                          [--json OUT.json] [--hair-frames DIR] [--hair-stride N]\n"
     "                          [--strands N] [--particles N] [--length M] [--curl-radius M]\n"
     "                          [--curl-pitch M] [--seed S] [--set NAME=VALUE]... [--print-scene]\n"
+    "                          [--saturation ROOT,TIP] [--cohesion ours|lin|kim|off]\n"
+    "                          [--obstacle sphere:x=..,y=..,z=..,r=..]... (also box:, plane:)\n"
     "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, shake:freq_hz=F,amplitude_rad=A,\n"
     "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, axis_x/y/z)\n";
 
@@ -36,9 +38,10 @@ int main(int argc, char** argv) {
   io::SceneConfig scene = io::builtinScene();
   io::RunOptions options;
   std::string json_path, why, motion_spec;
-  std::vector<std::string> names;
-  std::vector<double> values;
+  // Every override is a dotted scene key and its YAML value text, applied on top of the scene.
+  std::vector<std::pair<std::string, std::string>> overrides;
   bool print_scene = false;
+  std::vector<AnalyticObstacle> extra_obstacles;
   bool seconds_given = false;
   double seconds = 0.0;
   std::string scene_path;
@@ -67,8 +70,7 @@ int main(int argc, char** argv) {
     double x = 0.0;
     auto groomOverride = [&](const char* name) {
       if (!next(&v) || !parseNumber(a, v, &x, &why)) return false;
-      names.push_back(name);
-      values.push_back(x);
+      overrides.emplace_back(name, v);
       return true;
     };
     bool ok = true;
@@ -108,10 +110,29 @@ int main(int argc, char** argv) {
         why = "--set: '" + v + "' is not NAME=VALUE";
         ok = false;
       } else if (ok) {
-        ok = parseNumber("--set " + v.substr(0, eq), v.substr(eq + 1), &x, &why);
-        names.push_back(v.substr(0, eq));
-        values.push_back(x);
+        overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
       }
+    } else if (a == "--saturation") {
+      ok = next(&v);
+      const size_t comma = v.find(',');
+      double root = 0.0, tip = 0.0;
+      if (ok && comma == std::string::npos) {
+        why = "--saturation: '" + v + "' is not ROOT,TIP";
+        ok = false;
+      } else if (ok) {
+        ok = parseNumber("--saturation ROOT", v.substr(0, comma), &root, &why) &&
+             parseNumber("--saturation TIP", v.substr(comma + 1), &tip, &why);
+        overrides.emplace_back("saturation.root", v.substr(0, comma));
+        overrides.emplace_back("saturation.tip", v.substr(comma + 1));
+      }
+    } else if (a == "--cohesion") {
+      ok = next(&v);
+      overrides.emplace_back("solver.cohesion.mode", v);
+    } else if (a == "--obstacle") {
+      ok = next(&v);
+      AnalyticObstacle o;
+      if (ok) ok = AnalyticObstacle::parse(v, &o, &why);
+      if (ok) extra_obstacles.push_back(o);
     } else if (a == "--print-scene") {
       print_scene = true;
     } else {
@@ -123,15 +144,18 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (seconds_given) {
-    names.push_back("run.seconds");
-    values.push_back(seconds);
+  if (seconds_given) overrides.emplace_back("run.seconds", std::to_string(seconds));
+  for (const auto& [name, value] : overrides) {
+    if (!io::parseSceneYaml(io::dottedToYaml(name, value), &scene, &why)) {
+      std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
+      return 2;
+    }
   }
-  if (!io::applyParameters(names, values, &scene, nullptr, &why) ||
-      (!motion_spec.empty() && !parseMotionSpec(motion_spec, &scene.motion, &why))) {
+  if (!motion_spec.empty() && !parseMotionSpec(motion_spec, &scene.motion, &why)) {
     std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
     return 2;
   }
+  scene.obstacles.insert(scene.obstacles.end(), extra_obstacles.begin(), extra_obstacles.end());
   if (print_scene) {
     std::fputs(io::sceneToYaml(scene).c_str(), stdout);
     return 0;

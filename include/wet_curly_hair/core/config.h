@@ -59,6 +59,71 @@ struct IntegratorConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
+/// Curl exaggeration toward a helix by saturation, eqs. (6)-(9) of Kim 2023 (A6-A10).
+struct CurlConfig {
+  bool enabled = true;  ///< acts only on wet particles (saturation > 0).
+  /// "spring": the restoring target-edge variant of A10, k_w sigma (M h_edge - e) (default, chosen
+  /// by measurement, README "Curl exaggeration"); "literal": eq. (9) as a couple w_h sigma M h_edge.
+  std::string mode = "spring";
+  double weight_n_per_m = 25.0;  ///< w_h (spring: k_w), N/m; the force scales with saturation.
+  double helix_radius_m = 0.006; ///< r of eq. (6): the wet curl's radius, m.
+  double helix_pitch_m = 0.018;  ///< rise per turn of the wet curl (2 pi p of eq. 6), m.
+  /// M follows the strand's root-to-tip axis with this time constant (s; 0: at once, literal).
+  /// method.md §10.6: M taken at once from the moving axis is a follower load that self-excites.
+  double rotation_time_constant_s = 0.1;
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// Cohesion of wet strands. "ours": the stable display-position cohesion of eq. (10) (A11-A14),
+/// computed after each step and never fed back; "lin" and "kim": force-based reconstructions of
+/// Lin 2015 and Kim et al. 2017 (method.md §4, §5: their exact laws are not public);
+/// "off": none.
+struct CohesionConfig {
+  std::string mode = "ours";
+  double tightness = 0.85;   ///< lambda of eq. (10) (A12 blend), dimensionless.
+  double radius_m = 0.02;    ///< kernel support h, m.
+  /// lin: attraction spring per particle pair, N/m (0.1: about the particle's weight per pair).
+  double lin_stiffness_n_per_m = 0.1;
+  /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j); units m^3/(kg s^2)
+  /// for the first term): 5 gives pair forces of about a particle's weight at h = 2 cm.
+  double kim_surface_tension = 5.0;
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// Adhesion of wet hair to obstacles, eqs. (11)-(12) with Akinci's kernel (A15, A16).
+struct AdhesionConfig {
+  bool enabled = true;
+  /// Peak adhesion acceleration sigma nu A_max at sigma = 1, m/s^2 (nu = 1300 of the paper only
+  /// means something in the authors' units; A16). Set this instead of nu.
+  double peak_acceleration_m_s2 = 30.0;
+  double radius_m = 0.01;        ///< kernel h: attracts for h/2 < distance <= h, m.
+  bool literal_polynomial = false; ///< the paper's polynomial without Akinci's 1/4 power (A15).
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// Saturation-dependent stiffness, eq. (13) (A17), in a substep-independent form:
+/// v <- (xi zeta_i)^(h / reference_step_s) v, zeta_i = sigma gamma0 + (1 - sigma) gamma1.
+struct StiffnessConfig {
+  double global_factor = 0.999995;  ///< xi per reference step.
+  double wet_factor = 0.9999;       ///< gamma0 per reference step (fully wet).
+  double dry_factor = 1.0;          ///< gamma1 per reference step (dry).
+  double reference_step_s = 1e-4;   ///< the step the factors are given for, s.
+  /// Damp the velocity relative to the head's rigid motion (true) or the absolute velocity
+  /// (false, literal): absolute damping makes hair lag a moving head (method.md §10.2).
+  bool relative_to_head = true;
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
+/// Collision with external obstacles (analytic shapes and the OctoMap field).
+struct ObstacleCollisionConfig {
+  bool enabled = true;
+  double offset_m = 0.005;  ///< delta; also the adhesion rest distance, about h/2 (A16), m.
+  double friction = 0.3;
+  /// Particles farther than this from every obstacle skip collision and adhesion, m.
+  double margin_m = 0.03;
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
 /// Everything the step needs besides the model and the inputs.
 struct SolverConfig {
   StretchConfig stretch;
@@ -66,6 +131,11 @@ struct SolverConfig {
   CoreSpringConfig core;
   CollisionConfig collision;
   IntegratorConfig integrator;
+  CurlConfig curl;
+  CohesionConfig cohesion;
+  AdhesionConfig adhesion;
+  StiffnessConfig stiffness;
+  ObstacleCollisionConfig obstacle;
   Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);  ///< world frame, m/s^2.
   bool validate(const std::string& prefix, std::string* why) const;
 };

@@ -28,6 +28,11 @@ struct HairModel {
   std::vector<double> strand_length_m;      ///< per strand, rest arc length.
   Mat3List root_frame_head;                 ///< per strand, rest root frame in head frame.
   HeadShape head;                           ///< head colliders, head frame.
+  /// Curl exaggeration (eqs. 6-9): per edge the edge h_{i+1} - h_i of the strand's own helix
+  /// (same particle count and mean edge length, A9), phase-matched to the rest pose; per strand
+  /// the helix root-to-tip direction h^v (unit).
+  Vec3List helix_edge;
+  Vec3List helix_axis;
   int max_strand_size = 0;                  ///< largest particle count of any strand.
   double min_mass_kg = 0.0;                 ///< smallest non-root particle mass.
 
@@ -43,6 +48,10 @@ struct HairModel {
 /// masses enter the precompute of method.md §9.1). Returns false with a reason on bad input.
 bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& head,
                 const SolverConfig& config, HairModel* model, std::string* why);
+
+/// The helix of eq. (6) for one strand: `count` points with chord `edge_m` (A9), radius and rise
+/// per turn from the curl config; a straight line along +z when the radius is 0.
+Vec3List makeHelix(int count, double edge_m, double radius_m, double pitch_m);
 
 /// buildModel without validating: only for tests that probe outside the valid range (the
 /// flutter bound); the groom must still be structurally valid.

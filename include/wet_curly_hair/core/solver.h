@@ -5,6 +5,7 @@
 
 #include "wet_curly_hair/core/config.h"
 #include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/obstacles.h"
 #include "wet_curly_hair/core/state.h"
 #include "wet_curly_hair/core/types.h"
 
@@ -14,6 +15,7 @@ namespace wet_curly_hair {
 struct StepInputs {
   Pose head_start;  ///< head -> world at the start of the step.
   Pose head_end;    ///< head -> world at the end; roots are interpolated at every substep.
+  const Obstacles* obstacles = nullptr;  ///< external obstacles (world frame); null: none.
 };
 
 /// Counters of one step (what ran, what was clamped, what was repaired).
@@ -25,6 +27,15 @@ struct StepStats {
   uint64_t velocity_clamps = 0;          ///< velocity clamps in the damping pass.
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
   uint64_t repaired_strands = 0;         ///< strands restored to their last good state.
+  // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.
+  uint64_t curl_particle_substeps = 0;     ///< curl exaggeration (wet strands only).
+  uint64_t adhesion_particle_substeps = 0; ///< adhesion evaluated (wet, within obstacle reach).
+  uint64_t adhesion_active = 0;            ///< of those, inside the kernel band (pulled).
+  uint64_t obstacle_particle_substeps = 0; ///< obstacle distance evaluated (within reach).
+  uint64_t obstacle_contacts = 0;          ///< particle-substeps in contact with an obstacle.
+  uint64_t cohesion_particles = 0;         ///< wet particles that found cross-strand neighbours.
+  uint64_t wet_strands = 0;                ///< strands with any saturation.
+  uint64_t strands_near_obstacles = 0;     ///< strands whose reach touches an obstacle.
 };
 
 /// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s.
@@ -42,8 +53,15 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
 
 /// Advances one strand by one substep h from time fraction s0 to s1 of the step (exposed for
 /// tests). Returns the largest strain before limiting.
+/// Per-strand flags of one step: which optional stages the strand needs.
+struct StrandFlags {
+  bool wet = false;             ///< any particle with saturation > 0.
+  bool near_obstacle = false;   ///< the strand can reach an obstacle within the margin.
+  bool external_force = false;  ///< state->external_force holds cross-strand forces.
+};
+
 double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                     int strand, double s0, double s1, double h, HairState* state,
-                     StepStats* stats);
+                     int strand, const StrandFlags& flags, double s0, double s1, double h,
+                     HairState* state, StepStats* stats);
 
 }  // namespace wet_curly_hair

@@ -28,13 +28,32 @@ struct StrandScratch {
   void resize(int max_strand_size);
 };
 
+/// Uniform hash grid over particle positions for cross-strand neighbour queries (cohesion and
+/// its force-based baselines), sized once: counting sort of particles into hashed cells.
+struct NeighborGrid {
+  double cell_m = 0.0;
+  std::vector<uint32_t> cell_start;  ///< table size + 1 prefix offsets into `sorted`.
+  std::vector<uint32_t> sorted;      ///< particle indices grouped by cell hash.
+  std::vector<uint32_t> cell_of;     ///< per particle: its hashed cell.
+  std::vector<uint32_t> strand_of;   ///< per particle: its strand.
+  void resize(int particles, const std::vector<uint32_t>& strand_offsets);
+};
+
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
   Vec3List position;       ///< world frame, m.
   Vec3List velocity;       ///< world frame, m/s.
   std::vector<double> saturation;  ///< per particle, [0, 1].
+  /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
+  /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
+  Vec3List wet_position;
   Vec3List last_good_position;     ///< per particle, at the end of the last healthy step.
   Vec3List last_good_velocity;
+  Mat3List curl_rotation;          ///< per strand: the last well-defined M of eq. (7) (A8).
+  Vec3List external_force;         ///< per particle: cross-strand forces of the baselines, N.
+  std::vector<double> density;     ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
+  Vec3List normal_scratch;         ///< per particle: Akinci surface normals (kim baseline).
+  NeighborGrid grid;
   double time_s = 0.0;             ///< simulated time of the current positions, s.
   uint64_t step_count = 0;
   uint64_t substep_count = 0;

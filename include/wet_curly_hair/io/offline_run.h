@@ -14,6 +14,7 @@ namespace io {
 struct RunOptions {
   std::string hair_frames_dir;  ///< when set, frame_%05d.hair is written every hair_stride frames.
   int hair_stride = 1;
+  /// Frames that are written hold the output positions (p^w under "ours" cohesion).
 };
 
 struct RunSummary {
@@ -39,6 +40,19 @@ struct RunSummary {
   uint64_t strain_limited_edges = 0;
   uint64_t head_contacts = 0;
   int hair_frames_written = 0;
+  // Wet model measurements (README "Reproducing the paper"), taken on the output positions
+  // (the cohesion display positions p^w when cohesion is "ours", else the simulated ones).
+  double clump_distance_m = 0.0;  ///< final frame: mean distance of a wet particle to another strand.
+  double jitter_m = 0.0;          ///< RMS second difference per frame of output positions, head frame.
+  int tangles = 0;                ///< final frame: touching segment pairs of different strands.
+  int max_tangles = 0;            ///< the most at any sampled frame (every 10th).
+  double curl_radius_tip_m = 0.0; ///< final frame, tip third (simulated positions).
+  double curl_pitch_tip_m = 0.0;
+  double obstacle_contact_s = 0.0;  ///< mean over strands that touched: time within the band.
+  double max_strand_extension = 0.0;///< largest arc length / rest length - 1 of any strand.
+  uint64_t adhesion_active = 0;
+  uint64_t obstacle_contacts = 0;
+  uint64_t cohesion_particles = 0;  ///< summed over steps.
   std::string toJson() const;
 };
 

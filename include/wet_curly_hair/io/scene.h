@@ -11,6 +11,7 @@
 #include "wet_curly_hair/core/groom.h"
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/obstacles.h"
 
 namespace wet_curly_hair {
 namespace io {
@@ -24,10 +25,17 @@ struct GroomFileConfig {
   int resample_particles = 0;    ///< 0 keeps the file's points.
 };
 
+/// Initial saturation: a root-to-tip ramp on every strand (scene section `saturation`).
+struct SaturationInit {
+  double root = 0.0;  ///< saturation at the roots, [0, 1].
+  double tip = 0.0;   ///< saturation at the tips, [0, 1].
+};
+
 /// Run settings for the offline runner.
 struct RunConfig {
   double seconds = 2.0;        ///< simulated time, s.
   double frame_s = 1.0 / 60.0; ///< output frame (one solver step), s.
+  double strand_radius_m = 0.0005;  ///< for the tangle count: segments closer than this touch.
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -39,6 +47,10 @@ struct SceneConfig {
   SolverConfig solver;
   HeadMotionConfig motion;
   RunConfig run;
+  SaturationInit saturation;
+  /// External obstacles in the world frame, as spec strings in the YAML list `obstacles`
+  /// ("sphere:x=..,y=..,z=..,r=..", "box:...", "plane:..."; see AnalyticObstacle::parse).
+  std::vector<AnalyticObstacle> obstacles;
   bool validate(std::string* why) const;
 };
 
@@ -74,6 +86,13 @@ bool loadSceneFile(const std::string& path, SceneConfig* scene, std::string* why
 
 /// The scene as YAML text (every parameter, with its documentation as comments).
 std::string sceneToYaml(const SceneConfig& scene);
+
+/// "a.b.c", "v" -> "{a: {b: {c: v}}}": one dotted override as scene YAML (the value is YAML
+/// text, so numbers, booleans and strings all work).
+std::string dottedToYaml(const std::string& dotted_name, const std::string& value_text);
+
+/// The spec string of an analytic obstacle (what AnalyticObstacle::parse reads back).
+std::string obstacleSpec(const AnalyticObstacle& obstacle);
 
 /// The built-in scene: curly hair on the default head, nodding (`config/scenes/default.yaml`
 /// is a copy of it, kept in step by a test).
