@@ -77,6 +77,11 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
                                  weight_sum += w;
                                  pull += w * state->saturation[j] * (p[j] - p[i]);
                                });
+    // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
+    // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
+    // crosses the kernel support: measured as jitter under rotation (README).
+    if (c.include_self && weight_sum > 0.0)
+      weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
     if (weight_sum <= 0.0) continue;  // isolated: p^w = p (A13)
     state->wet_position[i] = p[i] + (c.tightness / weight_sum) * pull;
     ++clumped;

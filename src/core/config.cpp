@@ -54,8 +54,22 @@ bool finiteVec(const std::string& name, const Vec3& v, std::string* why) {
 
 using namespace config_check;
 
+namespace {
+bool oneOf(const std::string& name, const std::string& value,
+           std::initializer_list<const char*> allowed, std::string* why) {
+  std::string list;
+  for (const char* a : allowed) {
+    if (value == a) return true;
+    list += (list.empty() ? "" : ", ") + std::string(a);
+  }
+  if (why) *why = name + ": '" + value + "' is not one of " + list;
+  return false;
+}
+}  // namespace
+
 bool StretchConfig::validate(const std::string& p, std::string* why) const {
   return positive(p + "stiffness_n_per_m", stiffness_n_per_m, why) &&
+         oneOf(p + "limit_velocity", limit_velocity, {"displacement", "inelastic"}, why) &&
          nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) &&
          finiteInRange(p + "strain_limit", strain_limit, 1e-4, 1.0, why) &&
          finiteInRange(p + "strain_rate_limit_per_substep", strain_rate_limit_per_substep, 1e-5,
@@ -103,18 +117,6 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
   return true;
 }
 
-namespace {
-bool oneOf(const std::string& name, const std::string& value,
-           std::initializer_list<const char*> allowed, std::string* why) {
-  std::string list;
-  for (const char* a : allowed) {
-    if (value == a) return true;
-    list += (list.empty() ? "" : ", ") + std::string(a);
-  }
-  if (why) *why = name + ": '" + value + "' is not one of " + list;
-  return false;
-}
-}  // namespace
 
 bool CurlConfig::validate(const std::string& p, std::string* why) const {
   return oneOf(p + "mode", mode, {"spring", "literal"}, why) &&

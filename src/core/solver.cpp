@@ -222,6 +222,7 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
 
   // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
   const double limit = config.stretch.strain_limit;
+  const bool inelastic_limit = config.stretch.limit_velocity == "inelastic";
   double max_strain = 0.0;
   for (int i = 0; i < edges; ++i) {
     const double len = (p[i + 1] - p[i]).norm();
@@ -229,7 +230,15 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
     if (disp.squaredNorm() > 0.0) {
       p[i + 1] += disp;
-      v[i + 1] += disp / h;
+      if (inelastic_limit) {
+        // Remove the edge's stretching relative velocity only: never adds energy, even when a
+        // collider keeps pushing the particle back out every substep.
+        const Vec3 e = (p[i + 1] - p[i]).normalized();
+        const double a = (v[i + 1] - v[i]).dot(e);
+        if (a > 0.0) v[i + 1] -= a * e;
+      } else {
+        v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
+      }
       ++stats->strain_limited_edges;
     }
   }

@@ -40,6 +40,7 @@ std::string RunSummary::toJson() const {
       .add("jitter", jitter_m)
       .add("tangles", tangles)
       .add("max_tangles", max_tangles)
+      .add("tangles_sim", tangles_sim)
       .add("curl_radius_tip_m", curl_radius_tip_m)
       .add("curl_pitch_tip_m", curl_pitch_tip_m)
       .add("obstacle_contact_s", obstacle_contact_s)
@@ -177,9 +178,10 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   }
   s.jitter_m = jitter_count ? std::sqrt(jitter_sum / jitter_count) : 0.0;
   s.clump_distance_m = clumpDistance(model, state.wet_position, state.saturation,
-                                     4.0 * scene.solver.cohesion.radius_m, &metric_grid);
+                                     scene.run.clump_search_m, &metric_grid);
   s.tangles = tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid);
   s.max_tangles = std::max(s.max_tangles, s.tangles);
+  s.tangles_sim = tangleCount(model, state.position, scene.run.strand_radius_m, &metric_grid);
   const CurlShape curl = tipCurlShape(model, state.position);
   s.curl_radius_tip_m = curl.radius_m;
   s.curl_pitch_tip_m = curl.pitch_m;

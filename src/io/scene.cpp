@@ -15,7 +15,8 @@ bool RunConfig::validate(const std::string& p, std::string* why) const {
   using namespace config_check;
   return finiteInRange(p + "seconds", seconds, 0.0, 1e7, why) &&
          finiteInRange(p + "frame_s", frame_s, 1e-5, 1.0, why) &&
-         finiteInRange(p + "strand_radius_m", strand_radius_m, 0.0, 0.1, why);
+         finiteInRange(p + "strand_radius_m", strand_radius_m, 0.0, 0.1, why) &&
+         finiteInRange(p + "clump_search_m", clump_search_m, 1e-4, 1.0, why);
 }
 
 bool SceneConfig::validate(std::string* why) const {
@@ -99,6 +100,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.stretch.strain_limit", &c.stretch.strain_limit, "largest edge strain", false);
   d("solver.stretch.strain_rate_limit_per_substep", &c.stretch.strain_rate_limit_per_substep,
     "velocity clamp: largest strain change per substep", false);
+  str("solver.stretch.limit_velocity", &c.stretch.limit_velocity,
+    "after a strain-limit projection: displacement (Selle) or inelastic", false);
   d("solver.bend.stiffness_n_per_m", &c.bend.stiffness_n_per_m, "k_b, N/m (eq. 4)", false);
   d("solver.bend.damping_ns_per_m", &c.bend.damping_ns_per_m, "c_b, N s/m (eq. 4)", false);
   d("solver.bend.smoothing_edges", &c.bend.smoothing_edges, "alpha_b in mean edge lengths", true);
@@ -121,6 +124,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   str("solver.cohesion.mode", &c.cohesion.mode, "ours (eq. 10), lin, kim or off", false);
   d("solver.cohesion.tightness", &c.cohesion.tightness, "lambda of eq. 10", false);
   d("solver.cohesion.radius_m", &c.cohesion.radius_m, "kernel support h, m", false);
+  b("solver.cohesion.include_self", &c.cohesion.include_self,
+    "the particle itself joins the Shepard weights of eq. 10 (A13)", false);
   d("solver.cohesion.lin_stiffness_n_per_m", &c.cohesion.lin_stiffness_n_per_m,
     "lin baseline: pair attraction, N/m", false);
   d("solver.cohesion.kim_surface_tension", &c.cohesion.kim_surface_tension,
@@ -154,6 +159,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("run.seconds", &s->run.seconds, "simulated time, s", false);
   d("run.frame_s", &s->run.frame_s, "output frame, s", false);
   d("run.strand_radius_m", &s->run.strand_radius_m, "strand radius for the tangle count, m", false);
+  d("run.clump_search_m", &s->run.clump_search_m, "clump distance search radius, m", false);
   d("saturation.root", &s->saturation.root, "initial saturation at the roots, [0, 1]", false);
   d("saturation.tip", &s->saturation.tip, "initial saturation at the tips, [0, 1]", false);
   return t;

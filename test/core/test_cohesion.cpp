@@ -41,6 +41,7 @@ TEST(Cohesion, WetNeighboursClumpIsolatedParticlesStay) {
   Fixture f(0.005);
   std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
   CohesionConfig c;
+  c.include_self = false;  // the literal neighbour set of A13: exact pull of lambda * gap
   EXPECT_GT(computeDisplayCohesion(f.model, c, &f.state), 0);
   for (int i = 0; i < 10; ++i) {
     // Strand 0 moves toward strand 1 along x by lambda times the gap (its only neighbour), and
@@ -51,6 +52,21 @@ TEST(Cohesion, WetNeighboursClumpIsolatedParticlesStay) {
   }
   // The dynamics never read p^w: positions are unchanged.
   EXPECT_EQ(f.state.position[3], f.state.last_good_position[3]);
+}
+
+TEST(Cohesion, SelfWeightMakesThePullGrowSmoothlyWithDistance) {
+  // With the particle in its own Shepard sum, a neighbour near the edge of the support pulls
+  // little; without it, any neighbour inside the support pulls by the full lambda.
+  for (double gap : {0.019, 0.01, 0.002}) {
+    Fixture f(gap);
+    std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
+    CohesionConfig c;
+    computeDisplayCohesion(f.model, c, &f.state);
+    const double pull = f.state.wet_position[5].x() / (0.85 * gap);
+    if (gap > 0.015) EXPECT_LT(pull, 0.1) << gap;
+    if (gap < 0.005) EXPECT_GT(pull, 0.3) << gap;
+    EXPECT_LT(pull, 1.0) << gap;
+  }
 }
 
 TEST(Cohesion, IsTranslationInvariant) {

@@ -17,6 +17,9 @@ struct StretchConfig {
   /// Velocity clamp inside the damping pass (Iben §2.2a): the axial relative velocity of an edge
   /// may change its length by at most this fraction of the rest length per substep.
   double strain_rate_limit_per_substep = 0.01;
+  /// Velocity after a strain-limit projection: "displacement" adds displacement / dt (Selle
+  /// 2008, method.md §2.2b); "inelastic" removes the edge's stretching relative velocity.
+  std::string limit_velocity = "displacement";
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -81,12 +84,16 @@ struct CurlConfig {
 struct CohesionConfig {
   std::string mode = "ours";
   double tightness = 0.85;   ///< lambda of eq. (10) (A12 blend), dimensionless.
-  double radius_m = 0.02;    ///< kernel support h, m.
-  /// lin: attraction spring per particle pair, N/m (0.1: about the particle's weight per pair).
-  double lin_stiffness_n_per_m = 0.1;
-  /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j); units m^3/(kg s^2)
-  /// for the first term): 5 gives pair forces of about a particle's weight at h = 2 cm.
-  double kim_surface_tension = 5.0;
+  double radius_m = 0.04;    ///< kernel support h, m (chosen with include_self, README).
+  /// Include the particle itself in the Shepard weights of eq. (10) (A13). Chosen by measurement
+  /// (README "Cohesion"): without it p^w jumps when a neighbour enters the kernel support.
+  bool include_self = true;
+  /// lin: attraction spring per particle pair, N/m. The default clumps the cohesion scene about as
+  /// much as "ours" does (README "Cohesion"), so that the comparison is at equal clumping.
+  double lin_stiffness_n_per_m = 0.004;
+  /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j), SI), calibrated
+  /// the same way.
+  double kim_surface_tension = 0.3;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

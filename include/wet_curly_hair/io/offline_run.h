@@ -46,6 +46,7 @@ struct RunSummary {
   double jitter_m = 0.0;          ///< RMS second difference per frame of output positions, head frame.
   int tangles = 0;                ///< final frame: touching segment pairs of different strands.
   int max_tangles = 0;            ///< the most at any sampled frame (every 10th).
+  int tangles_sim = 0;            ///< final frame, on the simulated positions (not p^w).
   double curl_radius_tip_m = 0.0; ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
   double obstacle_contact_s = 0.0;  ///< mean over strands that touched: time within the band.

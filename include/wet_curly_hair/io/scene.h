@@ -36,6 +36,7 @@ struct RunConfig {
   double seconds = 2.0;        ///< simulated time, s.
   double frame_s = 1.0 / 60.0; ///< output frame (one solver step), s.
   double strand_radius_m = 0.0005;  ///< for the tangle count: segments closer than this touch.
+  double clump_search_m = 0.05;     ///< clump distance: nearest other strand searched this far.
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
