@@ -22,6 +22,12 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 /// strided read and write moves kBlock contiguous floats.
 constexpr int kBlock = 16;
 
+/// Loops are scheduled dynamically in small chunks: each line is computed the same way whichever
+/// thread takes it, and a thread that loses its core to another process delays the pass by one
+/// chunk only. Passes over fewer cells than this run on one thread: forking costs more than it
+/// saves, and far more when another process holds a core (the team waits for a descheduled thread).
+constexpr int64_t kMinParallelCells = int64_t{1} << 16;
+
 int maxThreads() {
 #ifdef _OPENMP
   return std::max(1, omp_get_max_threads());
@@ -43,14 +49,16 @@ int threadId() {
 /// inside OpenMP).
 struct LineScratch {
   std::vector<float> block;  // kBlock gathered lines of length n, line after line.
-  std::vector<float> z;      // parabola boundaries, n + 1.
-  std::vector<float> g;      // f[v] + v^2 of the envelope parabolas, n.
-  std::vector<float> fv;     // f[v] of the envelope parabolas, n.
-  std::vector<float> v;      // envelope parabola apexes (integers, as floats), n.
+  std::vector<double> g;     // f[v] + v^2 of the envelope parabolas, n.
+  std::vector<double> zn;    // left boundary of parabola k: zn[k] / zd[k] (zd > 0), n.
+  std::vector<double> zd;
+  std::vector<float> fv;  // f[v] of the envelope parabolas, n.
+  std::vector<float> v;   // envelope parabola apexes (integers, as floats), n.
   void resize(int n) {
     block.assign(static_cast<size_t>(kBlock) * n, 0.0f);
-    z.assign(n + 1, 0.0f);
-    g.assign(n, 0.0f);
+    g.assign(n, 0.0);
+    zn.assign(n, 0.0);
+    zd.assign(n, 0.0);
     fv.assign(n, 0.0f);
     v.assign(n, 0.0f);
   }
@@ -69,44 +77,52 @@ struct Squared {
 
 /// 1-D lower envelope (Felzenszwalb-Huttenlocher): d[q] = out(min_p f[p] + (q - p)^2) over the
 /// n samples of f; +infinity samples are skipped, and a line without a finite sample gives
-/// out(+infinity) everywhere. d may alias f (f is read completely before d is written). The
-/// output is written parabola by parabola, so that the inner loop vectorises.
+/// out(+infinity) everywhere. d may alias f (f is read completely before d is written).
+///
+/// The parabola boundaries are kept as fractions and compared by cross-multiplication in
+/// double: no division on the loop-carried path (it was the latency bottleneck), and exact for
+/// integer inputs (products stay below 2^53). The output is written parabola by parabola, so
+/// that the inner loop vectorises.
 template <class Out>
 void envelope1d(const float* f, int n, float* d, LineScratch* s, Out out) {
   float* v = s->v.data();
-  float* z = s->z.data();
-  float* g = s->g.data();
   float* fv = s->fv.data();
+  double* g = s->g.data();
+  double* zn = s->zn.data();
+  double* zd = s->zd.data();
   int k = -1;
   for (int q = 0; q < n; ++q) {
     const float fq = f[q];
     if (fq == kInf) continue;
-    const float qf = static_cast<float>(q);
-    const float gq = fq + qf * qf;
-    float sect = -kInf;
-    while (k >= 0) {
-      sect = (gq - g[k]) / (2.0f * (qf - v[k]));
-      if (sect > z[k]) break;
-      --k;
+    const double qd = q;
+    const double gq = static_cast<double>(fq) + qd * qd;
+    // Pop parabola k while the new one takes over at or before its left boundary:
+    // (gq - g[k]) / (2 (q - v[k])) <= zn[k] / zd[k]. Parabola 0 starts at -infinity.
+    while (k > 0 && (gq - g[k]) * zd[k] <= zn[k] * (2.0 * (qd - v[k]))) --k;
+    if (k >= 0) {
+      zn[k + 1] = gq - g[k];
+      zd[k + 1] = 2.0 * (qd - v[k]);
     }
     ++k;
-    v[k] = qf;
+    v[k] = static_cast<float>(q);
     g[k] = gq;
     fv[k] = fq;
-    z[k] = k == 0 ? -kInf : sect;
   }
   if (k < 0) {
     const float inf = out(kInf);
     std::fill(d, d + n, inf);
     return;
   }
-  // Parabola j covers the samples z[j] < q <= z[j + 1] (z is strictly increasing).
-  const float last = static_cast<float>(n - 1);
+  // Parabola j covers the samples zn[j] / zd[j] < q <= zn[j + 1] / zd[j + 1]. The floor of the
+  // double quotient is exact: a quotient of integers below 2^50 with denominator below 2^26 is
+  // either an integer or at least 2^-26 away from one, far more than its rounding error.
+  const double last = n - 1;
   int q = 0;
   for (int j = 0; j <= k && q < n; ++j) {
-    // Clamped in float before the conversion, so that huge intersections stay defined.
     const int q_end =
-        j == k ? n - 1 : static_cast<int>(std::max(-1.0f, std::min(std::floor(z[j + 1]), last)));
+        j == k
+            ? n - 1
+            : static_cast<int>(std::max(-1.0, std::min(std::floor(zn[j + 1] / zd[j + 1]), last)));
     const float vj = v[j];
     const float fj = fv[j];
     for (; q <= q_end; ++q) {
@@ -120,7 +136,7 @@ void envelope1d(const float* f, int n, float* d, LineScratch* s, Out out) {
 /// grid + r * n. If row_mask is given, only rows with row_mask[r] != 0 are transformed.
 void contiguousPass(float* grid, int n, int64_t n_rows, const uint8_t* row_mask,
                     std::vector<LineScratch>* scratch) {
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 32) if (n_rows * n >= kMinParallelCells)
   for (int64_t row = 0; row < n_rows; ++row) {
     if (row_mask && !row_mask[row]) continue;
     float* line = grid + row * n;
@@ -137,7 +153,7 @@ void stridedPass(float* grid, int nx, int64_t n_outer, int64_t outer_stride, int
                  std::vector<LineScratch>* scratch) {
   const int64_t n_blocks = (nx + kBlock - 1) / kBlock;
   const int64_t n_items = n_outer * n_blocks;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 2) if (n_outer * nx * n >= kMinParallelCells)
   for (int64_t item = 0; item < n_items; ++item) {
     const int64_t o = item / n_blocks;
     const int x0 = static_cast<int>((item % n_blocks) * kBlock);
@@ -246,7 +262,8 @@ void binaryColumnPass(const uint8_t* occ, const Eigen::Vector3i& full, const Eig
   info->row_has_occupied.assign(int64_t{ny} * nz, 0);
   int64_t n_occupied = 0;
   std::vector<std::vector<int>> last_site(maxThreads(), std::vector<int>(nx));
-#pragma omp parallel for schedule(static) reduction(+ : n_occupied)
+  const bool parallel = sub_slab * nz >= kMinParallelCells;
+#pragma omp parallel for schedule(dynamic, 2) reduction(+ : n_occupied) if (parallel)
   for (int y = 0; y < ny; ++y) {
     int* last = last_site[threadId()].data();
     std::fill(last, last + nx, -kNoSite);
@@ -448,7 +465,7 @@ bool buildSignedDistanceField(const std::vector<uint8_t>& occupied, const Eigen:
 
     // d_out, pass 3 (x), fused with the signed field:
     // sdf = (sqrt(d_out^2) - 1/2) h outside, -(sqrt(d_in^2) - 1/2) h inside.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(dynamic, 32) if (cells >= kMinParallelCells)
     for (int64_t row = 0; row < int64_t{ny} * nz; ++row) {
       const int y = static_cast<int>(row % ny), z = static_cast<int>(row / ny);
       float* line = field + row * nx;

@@ -10,7 +10,6 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <sstream>
 
 #include "wet_curly_hair/core/config.h"
@@ -596,7 +595,8 @@ bool buildSdfFromOctree(const octomap::OcTree& tree, const Pose& tree_in_world,
       // 0 (unknown) and 1 (occupied) become 1, 2 (free) becomes 0.
       n_occupied = 0;
       uint8_t* state = r.state.data();
-#pragma omp parallel for schedule(static) reduction(+ : n_occupied)
+      const bool parallel = cells >= (int64_t{1} << 16);
+#pragma omp parallel for schedule(static) reduction(+ : n_occupied) if (parallel)
       for (int64_t i = 0; i < cells; ++i) {
         const uint8_t occ = state[i] != 2;
         state[i] = occ;

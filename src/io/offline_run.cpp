@@ -10,6 +10,7 @@
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/json.h"
+#include "wet_curly_hair/io/octomap_sdf.h"
 #include "wet_curly_hair/io/scene_setup.h"
 
 namespace wet_curly_hair {
@@ -48,6 +49,8 @@ std::string RunSummary::toJson() const {
       .add("adhesion_active", static_cast<unsigned long long>(adhesion_active))
       .add("obstacle_contacts", static_cast<unsigned long long>(obstacle_contacts))
       .add("cohesion_particles", static_cast<unsigned long long>(cohesion_particles))
+      .add("sdf_build_s", sdf_build_s)
+      .add("max_obstacle_penetration_m", max_obstacle_penetration_m)
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
@@ -95,10 +98,45 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   }
   Obstacles obstacles;
   obstacles.analytic = scene.obstacles;
-  s.strands = model.strandCount();
-  s.particles = model.particleCount();
   const double frame = scene.run.frame_s;
   const long frames = std::lround(scene.run.seconds / frame);
+  if (!scene.obstacle_map.file.empty()) {
+    // The field covers the box the hair can reach: every root over the scripted motion, grown by
+    // the longest strand (buildSdfFromOctree adds the margin).
+    std::unique_ptr<octomap::OcTree> tree;
+    std::string inner;
+    if (!loadOctreeFile(scene.obstacle_map.file, &tree, &inner)) {
+      if (why) *why = "obstacle_map.file: " + inner;
+      return false;
+    }
+    double longest = 0.0;
+    for (double l : model.strand_length_m) longest = std::max(longest, l);
+    Eigen::AlignedBox3d reach;
+    for (long f = 0; f <= frames; ++f) {
+      const Pose pose = headPose(motion, f * frame);
+      for (int st = 0; st < model.strandCount(); ++st)
+        reach.extend(pose.apply(model.rest_position_head[model.strandBegin(st)]));
+    }
+    reach.min() -= Vec3::Constant(longest);
+    reach.max() += Vec3::Constant(longest);
+    SdfBuildConfig build;
+    build.resolution_m = scene.obstacle_map.resolution_m;
+    build.margin_m = scene.obstacle_map.margin_m;
+    build.unknown_is_occupied = scene.obstacle_map.unknown_is_occupied;
+    Pose map_in_world;
+    map_in_world.translation = scene.obstacle_map.offset_m;
+    auto sdf = std::make_shared<DenseSdf>();
+    SdfBuildStats stats;
+    if (!buildSdfFromOctree(*tree, map_in_world, reach, build, sdf.get(), &obstacles.field.field_in_world,
+                            &stats, &inner)) {
+      if (why) *why = "obstacle_map: " + inner;
+      return false;
+    }
+    obstacles.field.sdf = sdf;
+    s.sdf_build_s = stats.total_s;
+  }
+  s.strands = model.strandCount();
+  s.particles = model.particleCount();
   s.substep_s = frame / substepCount(scene.solver, frame);
   // Output positions in the head frame for the jitter (three frames kept, allocated once).
   Vec3List out_prev2(model.particleCount()), out_prev1(model.particleCount());
@@ -124,10 +162,11 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       bool touching = false;
       for (int i = b; i < b + n; ++i) {
         if (i + 1 < b + n) arc += (state.position[i + 1] - state.position[i]).norm();
-        if (!obstacles.empty()) {
+        if (!obstacles.empty() && i > b) {
           Vec3 normal;
-          touching = touching || obstacles.distance(state.position[i], &normal) <=
-                                     scene.solver.adhesion.radius_m;
+          const double dist = obstacles.distance(state.position[i], &normal);
+          touching = touching || dist <= scene.solver.adhesion.radius_m;
+          s.max_obstacle_penetration_m = std::max(s.max_obstacle_penetration_m, -dist);
         }
       }
       s.max_strand_extension = std::max(s.max_strand_extension, arc / model.strand_length_m[st] - 1.0);
@@ -176,6 +215,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       ++s.hair_frames_written;
     }
   }
+  // max_penetration_m covers the head and the obstacles alike.
+  s.max_penetration_m = std::max(s.max_penetration_m, s.max_obstacle_penetration_m);
   s.jitter_m = jitter_count ? std::sqrt(jitter_sum / jitter_count) : 0.0;
   s.clump_distance_m = clumpDistance(model, state.wet_position, state.saturation,
                                      scene.run.clump_search_m, &metric_grid);

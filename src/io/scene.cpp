@@ -27,6 +27,10 @@ bool SceneConfig::validate(std::string* why) const {
       !finiteInRange("saturation.root", saturation.root, 0.0, 1.0, why) ||
       !finiteInRange("saturation.tip", saturation.tip, 0.0, 1.0, why))
     return false;
+  if (!finiteVec("obstacle_map.offset_m", obstacle_map.offset_m, why) ||
+      !finiteInRange("obstacle_map.resolution_m", obstacle_map.resolution_m, 1e-4, 1.0, why) ||
+      !finiteInRange("obstacle_map.margin_m", obstacle_map.margin_m, 0.0, 10.0, why))
+    return false;
   for (size_t k = 0; k < obstacles.size(); ++k)
     if (!obstacles[k].validate("obstacles[" + std::to_string(k) + "].", why)) return false;
   if (!groom_file.file.empty()) {
@@ -160,6 +164,12 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("run.frame_s", &s->run.frame_s, "output frame, s", false);
   d("run.strand_radius_m", &s->run.strand_radius_m, "strand radius for the tangle count, m", false);
   d("run.clump_search_m", &s->run.clump_search_m, "clump distance search radius, m", false);
+  str("obstacle_map.file", &s->obstacle_map.file, "OctoMap .bt/.ot obstacle file (empty: none)", false);
+  addVec(&t, "obstacle_map.offset_m", &s->obstacle_map.offset_m, "map origin in the world, m", false);
+  d("obstacle_map.resolution_m", &s->obstacle_map.resolution_m, "signed distance field voxel, m", false);
+  d("obstacle_map.margin_m", &s->obstacle_map.margin_m, "reach box margin, m", false);
+  b("obstacle_map.unknown_is_occupied", &s->obstacle_map.unknown_is_occupied,
+    "treat unknown space as occupied", false);
   d("saturation.root", &s->saturation.root, "initial saturation at the roots, [0, 1]", false);
   d("saturation.tip", &s->saturation.tip, "initial saturation at the tips, [0, 1]", false);
   return t;
@@ -499,6 +509,15 @@ SceneConfig builtinScene() {
   SceneConfig s;
   s.groom.strands = 200;
   s.groom.particles = 32;
+  s.groom.scalp_axis = Vec3(-0.45, 0.0, 1.0);  // the patch leaves the face free
+  s.groom.scalp_half_angle_deg = 65.0;
+  // Soft curls that drape on the head (the solver defaults hold curls up like a bush); the bend
+  // damping stays at critical, inside the flutter bound.
+  s.solver.bend.stiffness_n_per_m = 10.0;
+  s.solver.bend.damping_ns_per_m = 0.063;
+  s.solver.core.stiffness_n_per_m = 10.0;
+  s.saturation.root = 0.0;
+  s.saturation.tip = 0.8;  // wet toward the tips
   s.head.capsules.push_back({"neck", Vec3(-0.01, 0.0, -0.06), Vec3(-0.02, 0.0, -0.25), 0.055});
   s.motion.type = "nod";
   s.motion.freq_hz = 0.5;

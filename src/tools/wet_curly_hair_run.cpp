@@ -18,6 +18,8 @@ const char* kUsage =
     "                          [--curl-pitch M] [--seed S] [--set NAME=VALUE]... [--print-scene]\n"
     "                          [--saturation ROOT,TIP] [--cohesion ours|lin|kim|off]\n"
     "                          [--obstacle sphere:x=..,y=..,z=..,r=..]... (also box:, plane:)\n"
+    "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
+    "                          [--sdf-resolution M]\n"
     "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, shake:freq_hz=F,amplitude_rad=A,\n"
     "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, axis_x/y/z)\n";
 
@@ -133,6 +135,15 @@ int main(int argc, char** argv) {
       AnalyticObstacle o;
       if (ok) ok = AnalyticObstacle::parse(v, &o, &why);
       if (ok) extra_obstacles.push_back(o);
+    } else if (a == "--obstacle-map") {
+      ok = next(&v);
+      overrides.emplace_back("obstacle_map.file", "\"" + v + "\"");
+    } else if (a == "--obstacle-map-offset") {
+      ok = next(&v);
+      overrides.emplace_back("obstacle_map.offset_m", "[" + v + "]");
+    } else if (a == "--sdf-resolution") {
+      ok = next(&v) && parseNumber(a, v, &x, &why);
+      overrides.emplace_back("obstacle_map.resolution_m", v);
     } else if (a == "--print-scene") {
       print_scene = true;
     } else {

@@ -61,6 +61,7 @@ TEST(Cohesion, SelfWeightMakesThePullGrowSmoothlyWithDistance) {
     Fixture f(gap);
     std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
     CohesionConfig c;
+    c.radius_m = 0.02;
     computeDisplayCohesion(f.model, c, &f.state);
     const double pull = f.state.wet_position[5].x() / (0.85 * gap);
     if (gap > 0.015) EXPECT_LT(pull, 0.1) << gap;

@@ -84,6 +84,22 @@ TEST(SquaredDistanceTransform, MatchesBruteForceForGeneralisedInput) {
   }
 }
 
+TEST(SquaredDistanceTransform, ExactOnLongAxes) {
+  // Squared distances up to ~2e6 voxels^2 along a 1500-voxel axis stay exact integers.
+  std::mt19937 rng(13);
+  for (const Eigen::Vector3i& d :
+       {Eigen::Vector3i(1500, 4, 2), Eigen::Vector3i(3, 1500, 2), Eigen::Vector3i(2, 3, 1500)}) {
+    const std::vector<uint8_t> occ = randomOccupancy(d, 0.002, &rng);
+    std::vector<float> f(occ.size());
+    for (size_t i = 0; i < occ.size(); ++i) f[i] = occ[i] ? 0.0f : kInf;
+    f[0] = 0.0f;  // At least one site, at a corner.
+    const std::vector<float> expected = bruteForce(f, d);
+    std::string error;
+    ASSERT_TRUE(squaredDistanceTransform(&f, d, &error)) << error;
+    for (size_t i = 0; i < f.size(); ++i) ASSERT_EQ(f[i], expected[i]) << "cell " << i;
+  }
+}
+
 TEST(SquaredDistanceTransform, NoSitesStaysInfinite) {
   const Eigen::Vector3i d(5, 4, 3);
   std::vector<float> f(cellCount(d), kInf);

@@ -67,9 +67,9 @@ std::vector<Leaf> leaves(const octomap::OcTree& t) {
   return out;
 }
 
-std::string binaryFile(octomap::OcTree& t) {
+std::string binaryFile(const octomap::OcTree& t) {
   std::ostringstream s;
-  t.writeBinary(s);
+  t.writeBinaryConst(s);  // writeBinary would also prune the tree.
   return s.str();
 }
 
@@ -218,7 +218,7 @@ TEST(LoadOctree, MessagePayloadRefusals) {
   EXPECT_NE(error.find("16 levels"), std::string::npos) << error;
   EXPECT_FALSE(octreeFromMessagePayload(false, "OcTree", 0.05, ones, &out, &error));
   EXPECT_NE(error.find("not finite"), std::string::npos) << error;  // 0xffffffff is a NaN.
-  // A full stream of finite values whose every node has 8 children: too deep.
+  // A full stream of finite values, each node with one child: a chain 20 levels deep.
   std::vector<int8_t> deep;
   for (int i = 0; i < 20; ++i) {
     const float v = 1.0f;
@@ -429,6 +429,21 @@ void checkShape(const Case& c, double h, const Pose& pose, double* max_error,
   EXPECT_EQ(stats.memory_bytes, sdf.memoryBytes());
   EXPECT_NEAR((sdf_in_world.translation - pose.translation).norm(), 0.0, 1e-15);
   EXPECT_NEAR(sdf_in_world.rotation.angularDistance(pose.rotation), 0.0, 1e-12);
+
+  // Unit gradients exactly at voxel centres, face centres, edge midpoints and cell corners of
+  // the interpolation lattice (where the trilinear gradient has its kinks), on every 3rd voxel.
+  for (int k = 0; k < sdf.dims.z(); k += 3) {
+    for (int j = 0; j < sdf.dims.y(); j += 3) {
+      for (int i = 0; i < sdf.dims.x(); i += 3) {
+        for (const Vec3& off : {Vec3(0, 0, 0), Vec3(0.5, 0, 0), Vec3(0, 0.5, 0), Vec3(0, 0, 0.5),
+                                Vec3(0.5, 0.5, 0), Vec3(0.5, 0.5, 0.5)}) {
+          Vec3 g;
+          sdf.distanceAndGradient(sdf.origin_m + h * (Vec3(i, j, k) + off), &g);
+          ASSERT_NEAR(g.norm(), 1.0, 1e-12) << i << " " << j << " " << k;
+        }
+      }
+    }
+  }
 
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(0.0, 1.0);

@@ -1,7 +1,9 @@
 // The offline runner as a library: summary fields, frames written, bad scenes refused.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <sys/stat.h>
 
 #include "wet_curly_hair/io/hair_file.h"
@@ -72,4 +74,63 @@ TEST(OfflineRun, RealHairFromAnotherTool) {
   EXPECT_EQ(s.strands, 228);
   EXPECT_EQ(s.particles, 228 * 24);
   EXPECT_TRUE(s.finite);
+}
+
+#include <octomap/octomap.h>
+
+namespace {
+
+/// An OctoMap of a sphere (occupied where the voxel centre is inside), free around it.
+std::string writeSphereOctomap(const std::string& name, double radius, double res) {
+  octomap::OcTree tree(res);
+  const int n = static_cast<int>(std::ceil(2.0 * radius / res)) + 4;
+  for (int k = -n; k <= n; ++k)
+    for (int j = -n; j <= n; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const Vec3 c = res * Vec3(i + 0.5, j + 0.5, k + 0.5);
+        tree.updateNode(octomap::point3d(c.x(), c.y(), c.z()), c.norm() < radius, true);
+      }
+  tree.updateInnerOccupancy();
+  const std::string path = std::string(WCH_BINARY_DIR) + "/" + name;
+  EXPECT_TRUE(tree.writeBinary(path));
+  return path;
+}
+
+}  // namespace
+
+TEST(OfflineRun, HairBrushingAnOctomapSphereStaysOutAndWetHairAdheres) {
+  // The head slides sideways under a sphere known only as an OctoMap (5 mm voxels).
+  SceneConfig scene;
+  std::string why;
+  ASSERT_TRUE(loadSceneFile(WCH_SOURCE_DIR "/config/paper/adhesion.yaml", &scene, &why)) << why;
+  scene.obstacles.clear();
+  scene.obstacle_map.file = writeSphereOctomap("sphere_r6cm.bt", 0.06, 0.005);
+  scene.obstacle_map.offset_m = Vec3(0.0, 0.25, 0.25);
+  scene.groom.strands = 30;
+  scene.run.seconds = 1.5;
+  RunSummary dry, wet;
+  ASSERT_TRUE(runScene(scene, RunOptions(), &dry, &why)) << why;
+  scene.saturation = {1.0, 1.0};
+  ASSERT_TRUE(runScene(scene, RunOptions(), &wet, &why)) << why;
+  EXPECT_GT(dry.sdf_build_s, 0.0);
+  EXPECT_GT(dry.obstacle_contacts, 0u) << "the hair reaches the sphere";
+  // Kept out to within the field's accuracy (half a voxel) beyond the collision offset.
+  for (const RunSummary* s : {&dry, &wet}) {
+    EXPECT_LE(s->max_obstacle_penetration_m, 0.0025 + 1e-9);
+    EXPECT_TRUE(s->finite);
+  }
+  EXPECT_GT(wet.adhesion_active, 0u);
+  EXPECT_EQ(dry.adhesion_active, 0u);
+  EXPECT_GT(wet.obstacle_contact_s, dry.obstacle_contact_s) << "wet strands stay on longer";
+}
+
+TEST(OfflineRun, BadObstacleMapIsRefused) {
+  SceneConfig scene = builtinScene();
+  scene.run.seconds = 0.1;
+  scene.obstacle_map.file = std::string(WCH_BINARY_DIR) + "/not_an_octomap.bt";
+  { std::ofstream(scene.obstacle_map.file) << "garbage, not an octree\n"; }
+  RunSummary s;
+  std::string why;
+  EXPECT_FALSE(runScene(scene, RunOptions(), &s, &why));
+  EXPECT_NE(why.find("obstacle_map"), std::string::npos) << why;
 }

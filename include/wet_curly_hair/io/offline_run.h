@@ -54,6 +54,8 @@ struct RunSummary {
   uint64_t adhesion_active = 0;
   uint64_t obstacle_contacts = 0;
   uint64_t cohesion_particles = 0;  ///< summed over steps.
+  double sdf_build_s = 0.0;         ///< OctoMap -> signed distance field build time, s.
+  double max_obstacle_penetration_m = 0.0;  ///< deepest penetration into an obstacle, any frame.
   std::string toJson() const;
 };
 

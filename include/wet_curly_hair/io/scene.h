@@ -40,6 +40,15 @@ struct RunConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
+/// An OctoMap obstacle file placed in the world (scene section `obstacle_map`).
+struct ObstacleMapConfig {
+  std::string file;               ///< .bt or .ot; empty: none.
+  Vec3 offset_m = Vec3::Zero();   ///< the map frame's origin in the world, m.
+  double resolution_m = 0.005;    ///< voxel size of the signed distance field, m.
+  double margin_m = 0.05;         ///< the reach box is grown by this, m.
+  bool unknown_is_occupied = false;
+};
+
 /// A whole scene.
 struct SceneConfig {
   GroomConfig groom;
@@ -52,6 +61,7 @@ struct SceneConfig {
   /// External obstacles in the world frame, as spec strings in the YAML list `obstacles`
   /// ("sphere:x=..,y=..,z=..,r=..", "box:...", "plane:..."; see AnalyticObstacle::parse).
   std::vector<AnalyticObstacle> obstacles;
+  ObstacleMapConfig obstacle_map;
   bool validate(std::string* why) const;
 };
 
@@ -95,7 +105,7 @@ std::string dottedToYaml(const std::string& dotted_name, const std::string& valu
 /// The spec string of an analytic obstacle (what AnalyticObstacle::parse reads back).
 std::string obstacleSpec(const AnalyticObstacle& obstacle);
 
-/// The built-in scene: curly hair on the default head, nodding (`config/scenes/default.yaml`
+/// The built-in scene: soft curly hair, wet toward the tips, on the default head, nodding (`config/scenes/default.yaml`
 /// is a copy of it, kept in step by a test).
 SceneConfig builtinScene();
 
