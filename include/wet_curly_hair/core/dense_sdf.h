@@ -1,5 +1,5 @@
 // A signed distance field sampled on a dense, contiguous, axis-aligned grid, with trilinear
-// interpolation of the distance and of its gradient (docs: /work/shared/notes/octomap-to-sdf.md).
+// interpolation of the distance and of its gradient.
 #pragma once
 
 #include <cstddef>

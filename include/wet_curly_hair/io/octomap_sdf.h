@@ -1,6 +1,5 @@
 // OctoMap input (.bt / .ot files and octomap_msgs/Octomap payloads) and the signed distance
-// field of an OctoMap over the region the hair can reach (docs:
-// /work/shared/notes/octomap-to-sdf.md).
+// field of an OctoMap over the region the hair can reach.
 //
 // Every reader here validates the whole input itself (header and node stream: sizes, depth,
 // truncation, trailing bytes, finite values) before octomap sees a byte, because octomap's own
