@@ -10,6 +10,8 @@ WCH_BUILD=${WCH_BUILD:-$WCH_ROOT/_build}
 WCH_PACKAGES=(
   build-essential cmake pkg-config git
   ros-core-dev python3-rostest rosbash python3-rospy tf2-tools
+  librosbag-dev libtopic-tools-dev libstd-srvs-dev python3-rosbag python3-std-srvs
+  python3-geometry-msgs
   libtf2-ros-dev libtf2-eigen-dev libvisualization-msgs-dev
   liboctomap-dev libdynamicedt3d-dev
   libeigen3-dev libyaml-cpp-dev libcairo2-dev libgtest-dev libtbb-dev

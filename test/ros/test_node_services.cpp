@@ -1,0 +1,381 @@
+// rostest (services.test): ~set_saturation, ~set_parameters, ~get_parameters, ~reset; the
+// parameter server mirror; parameters at start-up.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+#include <std_srvs/Trigger.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "ros_test_helpers.h"
+#include "wet_curly_hair/GetParameters.h"
+#include "wet_curly_hair/SetParameters.h"
+#include "wet_curly_hair/SetSaturation.h"
+#include "wet_curly_hair/io/scene.h"
+
+using wch_test::Latest;
+using wet_curly_hair::GetParameters;
+using wet_curly_hair::SetParameters;
+using wet_curly_hair::SetSaturation;
+using wet_curly_hair::Strands;
+
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+class NodeServices : public testing::Test {
+ protected:
+  NodeServices()
+      : strands_(nh_, "/wet_curly_hair/strands"),
+        get_(nh_.serviceClient<GetParameters>("/wet_curly_hair/get_parameters")),
+        set_(nh_.serviceClient<SetParameters>("/wet_curly_hair/set_parameters")),
+        sat_(nh_.serviceClient<SetSaturation>("/wet_curly_hair/set_saturation")),
+        reset_(nh_.serviceClient<std_srvs::Trigger>("/wet_curly_hair/reset")) {}
+
+  GetParameters::Response getAll() {
+    GetParameters srv;
+    EXPECT_TRUE(wch_test::call(get_, &srv));
+    EXPECT_TRUE(srv.response.success) << srv.response.message;
+    return srv.response;
+  }
+  double get(const std::string& name) {
+    GetParameters srv;
+    srv.request.names = {name};
+    EXPECT_TRUE(wch_test::call(get_, &srv));
+    EXPECT_TRUE(srv.response.success) << srv.response.message;
+    return srv.response.values.empty() ? kNaN : srv.response.values[0];
+  }
+  SetParameters::Response set(const std::vector<std::string>& names,
+                              const std::vector<double>& values,
+                              const std::vector<std::string>& string_names = {},
+                              const std::vector<std::string>& string_values = {}) {
+    SetParameters srv;
+    srv.request.names = names;
+    srv.request.values = values;
+    srv.request.string_names = string_names;
+    srv.request.string_values = string_values;
+    EXPECT_TRUE(wch_test::call(set_, &srv));
+    return srv.response;
+  }
+  /// A strands message produced after this call (so after anything done before it).
+  Strands nextStrands() {
+    Strands m;
+    EXPECT_TRUE(strands_.next(20.0, &m)) << "no strands message within 20 s";
+    return m;
+  }
+  void expectSameParameters(const GetParameters::Response& a, const GetParameters::Response& b,
+                            const std::string& context) {
+    ASSERT_EQ(a.names, b.names) << context;
+    EXPECT_EQ(a.string_values, b.string_values) << context << ": a parameter changed";
+  }
+
+  ros::NodeHandle nh_;
+  Latest<Strands> strands_;
+  ros::ServiceClient get_, set_, sat_, reset_;
+};
+
+TEST_F(NodeServices, GetListsEveryScenParameterAndRefusesUnknownNames) {
+  wet_curly_hair::io::SceneConfig probe;
+  const auto table = wet_curly_hair::io::parameterTable(&probe);
+  const GetParameters::Response all = getAll();
+  ASSERT_EQ(all.names.size(), table.size());
+  EXPECT_EQ(all.values.size(), table.size());
+  EXPECT_EQ(all.string_values.size(), table.size());
+  EXPECT_EQ(all.types.size(), table.size());
+  EXPECT_EQ(all.docs.size(), table.size());
+  EXPECT_EQ(all.needs_reset.size(), table.size());
+  // start-up parameters given as ROS namespaces reach the scene
+  EXPECT_DOUBLE_EQ(get("groom.strands"), 20.0);
+  EXPECT_DOUBLE_EQ(get("solver.bend.damping_ns_per_m"), 0.2);
+  GetParameters srv;
+  srv.request.names = {"solver.bend.stiffness_n_per_m", "solver.no_such_thing"};
+  ASSERT_TRUE(wch_test::call(get_, &srv));
+  EXPECT_FALSE(srv.response.success);
+  EXPECT_NE(srv.response.message.find("solver.no_such_thing"), std::string::npos)
+      << srv.response.message;
+}
+
+TEST_F(NodeServices, SetThenGetReturnsTheValueAndMirrorsIt) {
+  SetParameters::Response r =
+      set({"solver.bend.stiffness_n_per_m", "solver.stretch.strain_limit"}, {42.5, 0.04});
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_FALSE(r.reset);
+  EXPECT_DOUBLE_EQ(get("solver.bend.stiffness_n_per_m"), 42.5);
+  EXPECT_DOUBLE_EQ(get("solver.stretch.strain_limit"), 0.04);
+  double mirrored = 0.0;
+  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver/bend/stiffness_n_per_m", mirrored));
+  EXPECT_DOUBLE_EQ(mirrored, 42.5);
+  // strings go through string_names / string_values
+  r = set({}, {}, {"solver.cohesion.mode"}, {"off"});
+  ASSERT_TRUE(r.success) << r.message;
+  std::string mode;
+  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver/cohesion/mode", mode));
+  EXPECT_EQ(mode, "off");
+  nextStrands();
+  EXPECT_TRUE(nextStrands().wet_positions.empty()) << "cohesion off: wet_positions must be empty";
+  r = set({}, {}, {"solver.cohesion.mode"}, {"ours"});
+  ASSERT_TRUE(r.success) << r.message;
+  nextStrands();
+  EXPECT_FALSE(nextStrands().wet_positions.empty());
+}
+
+TEST_F(NodeServices, InvalidSetsAreRefusedWithAMessageAndChangeNothing) {
+  struct Case {
+    const char* what;
+    std::vector<std::string> names;
+    std::vector<double> values;
+    std::vector<std::string> string_names, string_values;
+    const char* must_mention;
+  };
+  const std::vector<Case> cases = {
+      {"NaN", {"solver.bend.stiffness_n_per_m"}, {kNaN}, {}, {}, "solver.bend.stiffness_n_per_m"},
+      {"out of range",
+       {"solver.stretch.strain_limit"},
+       {-1.0},
+       {},
+       {},
+       "solver.stretch.strain_limit"},
+      {"unknown name", {"solver.bend.stifness"}, {1.0}, {}, {}, "solver.bend.stifness"},
+      {"wrong array length",
+       {"solver.bend.stiffness_n_per_m", "groom.seed"},
+       {1.0},
+       {},
+       {},
+       "length"},
+      {"not an integer", {"groom.strands"}, {2.5}, {}, {}, "groom.strands"},
+      {"bool not 0/1",
+       {"solver.collision.head_enabled"},
+       {2.0},
+       {},
+       {},
+       "solver.collision.head_enabled"},
+      {"one bad among good ones",
+       {"solver.bend.stiffness_n_per_m", "solver.core.damping_ns_per_m"},
+       {33.0, kNaN},
+       {},
+       {},
+       "solver.core.damping_ns_per_m"},
+      {"string value not allowed",
+       {},
+       {},
+       {"solver.cohesion.mode"},
+       {"sticky"},
+       "solver.cohesion.mode"},
+      {"string for a number",
+       {},
+       {},
+       {"solver.bend.stiffness_n_per_m"},
+       {"12"},
+       "solver.bend.stiffness_n_per_m"},
+      {"number for a string", {"solver.cohesion.mode"}, {1.0}, {}, {}, "solver.cohesion.mode"},
+      {"string arrays differ",
+       {},
+       {},
+       {"solver.cohesion.mode", "solver.curl.mode"},
+       {"off"},
+       "length"},
+      {"nothing given", {}, {}, {}, {}, "no parameter"},
+  };
+  const GetParameters::Response before = getAll();
+  XmlRpc::XmlRpcValue mirror_before;
+  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver", mirror_before));
+  for (const Case& c : cases) {
+    const SetParameters::Response r = set(c.names, c.values, c.string_names, c.string_values);
+    EXPECT_FALSE(r.success) << c.what;
+    EXPECT_FALSE(r.reset) << c.what;
+    EXPECT_NE(r.message.find(c.must_mention), std::string::npos)
+        << c.what << ": message '" << r.message << "' does not mention " << c.must_mention;
+    expectSameParameters(before, getAll(), c.what);
+  }
+  XmlRpc::XmlRpcValue mirror_after;
+  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver", mirror_after));
+  EXPECT_EQ(mirror_before.toXml(), mirror_after.toXml()) << "the parameter mirror changed";
+}
+
+TEST_F(NodeServices, GroomChangesRebuildTheModelAndResetTheHair) {
+  const SetParameters::Response r = set({"groom.strands"}, {10});
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_TRUE(r.reset);
+  const Strands m = nextStrands();
+  EXPECT_EQ(m.strand_offsets.size(), 11u);
+  EXPECT_EQ(wch_test::strandsProblem(m), "");
+  ASSERT_TRUE(set({"groom.strands"}, {20}).success);
+  EXPECT_EQ(nextStrands().strand_offsets.size(), 21u);
+}
+
+SetSaturation makeSat(float root, float tip, bool add = false) {
+  SetSaturation s;
+  s.request.root_value = root;
+  s.request.tip_value = tip;
+  s.request.add = add;
+  return s;
+}
+
+TEST_F(NodeServices, SaturationSelectionsApply) {
+  ASSERT_TRUE(reset_.waitForExistence(ros::Duration(20.0)));
+  // everywhere, root-to-tip ramp
+  SetSaturation s = makeSat(0.0f, 1.0f);
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  ASSERT_TRUE(s.response.success) << s.response.message;
+  Strands m = nextStrands();
+  const size_t n = m.saturation.size();
+  EXPECT_EQ(s.response.particles_changed, n);
+  const size_t strands = m.strand_offsets.size() - 1;
+  for (size_t k = 0; k < strands; ++k) {
+    EXPECT_FLOAT_EQ(m.saturation[m.strand_offsets[k]], 0.0f);          // root
+    EXPECT_FLOAT_EQ(m.saturation[m.strand_offsets[k + 1] - 1], 1.0f);  // tip
+  }
+  // a list of strands, uniform
+  s = makeSat(0.5f, 0.5f);
+  s.request.strands = {1, 2};
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  ASSERT_TRUE(s.response.success) << s.response.message;
+  m = nextStrands();
+  for (uint32_t i = m.strand_offsets[1]; i < m.strand_offsets[3]; ++i)
+    EXPECT_FLOAT_EQ(m.saturation[i], 0.5f);
+  EXPECT_FLOAT_EQ(m.saturation[m.strand_offsets[1] - 1], 1.0f);  // strand 0's tip untouched
+  // add, clamped to [0, 1]
+  s = makeSat(0.8f, 0.8f, true);
+  s.request.strands = {1};
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  ASSERT_TRUE(s.response.success) << s.response.message;
+  m = nextStrands();
+  for (uint32_t i = m.strand_offsets[1]; i < m.strand_offsets[2]; ++i)
+    EXPECT_FLOAT_EQ(m.saturation[i], 1.0f);
+  // a sphere in the head frame holding the whole head, and a box in the world frame around it
+  s = makeSat(0.25f, 0.25f);
+  s.request.region_type = SetSaturation::Request::REGION_SPHERE;
+  s.request.region_frame = SetSaturation::Request::FRAME_HEAD;
+  s.request.region_radius = 1.0;
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  ASSERT_TRUE(s.response.success) << s.response.message;
+  EXPECT_EQ(s.response.particles_changed, n);
+  s = makeSat(0.75f, 0.75f);
+  s.request.region_type = SetSaturation::Request::REGION_BOX;
+  s.request.region_frame = SetSaturation::Request::FRAME_WORLD;
+  s.request.region_center.z = 1.5;  // the head is at (0, 0, 1.5)
+  s.request.region_half_extents.x = s.request.region_half_extents.y = 1.0;
+  s.request.region_half_extents.z = 0.02;  // a thin slab through the head's centre
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  ASSERT_TRUE(s.response.success) << s.response.message;
+  EXPECT_GT(s.response.particles_changed, 0u);
+  EXPECT_LT(s.response.particles_changed, n);
+}
+
+TEST_F(NodeServices, InvalidSaturationRequestsAreRefusedAndChangeNothing) {
+  ASSERT_TRUE(sat_.waitForExistence(ros::Duration(20.0)));
+  SetSaturation base = makeSat(0.3f, 0.6f);
+  ASSERT_TRUE(wch_test::call(sat_, &base));
+  ASSERT_TRUE(base.response.success) << base.response.message;
+  const std::vector<float> before = nextStrands().saturation;
+  std::vector<std::pair<std::string, SetSaturation>> cases;
+  cases.push_back({"NaN root", makeSat(std::numeric_limits<float>::quiet_NaN(), 0.5f)});
+  cases.push_back({"root above 1", makeSat(1.5f, 0.5f)});
+  cases.push_back({"negative set", makeSat(-0.1f, 0.5f)});
+  cases.push_back({"add below -1", makeSat(-2.0f, 0.0f, true)});
+  SetSaturation unknown_strand = makeSat(0.5f, 0.5f);
+  unknown_strand.request.strands = {0, 9999};
+  cases.push_back({"unknown strand id", unknown_strand});
+  SetSaturation empty_sphere = makeSat(0.5f, 0.5f);
+  empty_sphere.request.region_type = SetSaturation::Request::REGION_SPHERE;
+  empty_sphere.request.region_radius = 0.0;
+  cases.push_back({"sphere of radius 0", empty_sphere});
+  SetSaturation flat_box = makeSat(0.5f, 0.5f);
+  flat_box.request.region_type = SetSaturation::Request::REGION_BOX;
+  flat_box.request.region_half_extents.x = flat_box.request.region_half_extents.y = 1.0;
+  cases.push_back({"box of zero height", flat_box});
+  SetSaturation nan_centre = makeSat(0.5f, 0.5f);
+  nan_centre.request.region_type = SetSaturation::Request::REGION_SPHERE;
+  nan_centre.request.region_radius = 0.1;
+  nan_centre.request.region_center.x = kNaN;
+  cases.push_back({"NaN centre", nan_centre});
+  SetSaturation bad_type = makeSat(0.5f, 0.5f);
+  bad_type.request.region_type = 7;
+  cases.push_back({"unknown region type", bad_type});
+  SetSaturation bad_frame = makeSat(0.5f, 0.5f);
+  bad_frame.request.region_type = SetSaturation::Request::REGION_SPHERE;
+  bad_frame.request.region_radius = 0.1;
+  bad_frame.request.region_frame = 5;
+  cases.push_back({"unknown region frame", bad_frame});
+  SetSaturation far_away = makeSat(0.5f, 0.5f);
+  far_away.request.region_type = SetSaturation::Request::REGION_SPHERE;
+  far_away.request.region_radius = 0.1;
+  far_away.request.region_center.x = 50.0;
+  cases.push_back({"region holding no particle", far_away});
+  for (auto& c : cases) {
+    ASSERT_TRUE(wch_test::call(sat_, &c.second)) << c.first;
+    EXPECT_FALSE(c.second.response.success) << c.first;
+    EXPECT_EQ(c.second.response.particles_changed, 0u) << c.first;
+    EXPECT_FALSE(c.second.response.message.empty()) << c.first;
+    std::printf("[ refused  ] %s: %s\n", c.first.c_str(), c.second.response.message.c_str());
+  }
+  EXPECT_EQ(nextStrands().saturation, before) << "a refused request changed the saturation";
+}
+
+TEST_F(NodeServices, ResetPutsTheHairBackAndCountsIt) {
+  SetSaturation s = makeSat(1.0f, 1.0f);
+  ASSERT_TRUE(wch_test::call(sat_, &s));
+  const Strands a = nextStrands();
+  std_srvs::Trigger t;
+  ASSERT_TRUE(wch_test::call(reset_, &t));
+  EXPECT_TRUE(t.response.success);
+  EXPECT_FALSE(t.response.message.empty());
+  const Strands b = nextStrands();
+  EXPECT_GT(b.reset_count, a.reset_count);
+  EXPECT_LE(b.step, 3u);
+  // saturation back to the scene's initial root-to-tip ramp
+  const float root = static_cast<float>(get("saturation.root"));
+  const float tip = static_cast<float>(get("saturation.tip"));
+  for (size_t k = 0; k + 1 < b.strand_offsets.size(); ++k) {
+    EXPECT_FLOAT_EQ(b.saturation[b.strand_offsets[k]], root);
+    EXPECT_FLOAT_EQ(b.saturation[b.strand_offsets[k + 1] - 1], tip);
+  }
+}
+
+/// Runs the node binary with extra arguments against the test's master; returns exit code and
+/// output.
+int runNode(const std::string& args, std::string* output) {
+  const std::string cmd = std::string(WCH_NODE_BINARY) + " __name:=refused_node " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return -1;
+  char buf[4096];
+  while (fgets(buf, sizeof(buf), p)) *output += buf;
+  const int status = pclose(p);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+TEST(NodeStartup, InvalidParametersAreRefusedByName) {
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"_solver/stretch/stiffness_n_per_m:=-5", "solver.stretch.stiffness_n_per_m"},
+      {"_solver/bend/stifness_n_per_m:=3", "~solver/bend/stifness_n_per_m"},
+      {"_groom/strands:=many", "~groom/strands"},
+      {"_publish_rate:=0", "~publish_rate"},
+      {"_head_frame:=world", "~head_frame"},
+      {"_scene:=/nonexistent/scene.yaml", "~scene"},
+      {"_obstacle_map/file:=/nonexistent/map.bt", "obstacle_map.file"},
+  };
+  for (const auto& c : cases) {
+    ros::param::del("/refused_node");
+    std::string out;
+    const int code = runNode(c.first, &out);
+    EXPECT_EQ(code, 1) << c.first << "\n" << out;
+    EXPECT_NE(out.find(c.second), std::string::npos)
+        << c.first << ": output does not name " << c.second << ":\n"
+        << out;
+    const size_t at = out.find("not starting");
+    std::printf("[ refused  ] %s -> %s", c.first.c_str(),
+                at == std::string::npos ? out.c_str() : out.substr(at).c_str());
+  }
+  ros::param::del("/refused_node");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_node_services");
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  return RUN_ALL_TESTS();
+}
