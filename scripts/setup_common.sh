@@ -37,7 +37,8 @@ wch_build() {
     cmake -S "$WCH_ROOT" -B "$WCH_BUILD" -DCMAKE_BUILD_TYPE=Release -DCATKIN_ENABLE_TESTING=ON \
       -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3
   fi
-  cmake --build "$WCH_BUILD" -j"$(nproc)" --target all "$@"
+  # The python messages (rospy clients, tests) are not part of "all".
+  cmake --build "$WCH_BUILD" -j"$(nproc)" --target all wet_curly_hair_generate_messages "$@"
 }
 
 wch_bin() {  # path of a built executable
