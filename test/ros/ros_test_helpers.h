@@ -20,6 +20,8 @@ class Latest {
   Latest(ros::NodeHandle& nh, const std::string& topic) {
     sub_ = nh.subscribe<M>(topic, 50, &Latest::onMessage, this);
   }
+  /// Unsubscribes first, so the spinner thread cannot call back into destroyed members.
+  ~Latest() { sub_.shutdown(); }
   /// Waits (wall clock) for a message received after this call that satisfies pred.
   bool waitFor(double timeout_s, const std::function<bool(const M&)>& pred, M* out = nullptr) {
     uint64_t seen;

@@ -25,6 +25,10 @@ class Recorder {
   explicit Recorder(ros::NodeHandle& nh)
       : sub_(nh.subscribe("/wet_curly_hair/strands", 1000, &Recorder::onStrands, this)),
         status_sub_(nh.subscribe("/wet_curly_hair/status", 10, &Recorder::onStatus, this)) {}
+  ~Recorder() {
+    sub_.shutdown();
+    status_sub_.shutdown();
+  }
   /// Waits (wall clock) until `passes` complete passes were seen.
   bool waitPasses(size_t passes, double timeout_s) {
     const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
@@ -56,10 +60,12 @@ class Recorder {
     std::lock_guard<std::mutex> lock(mutex_);
     status_ = *s;
   }
-  ros::Subscriber sub_, status_sub_;
+  // Declared before the subscribers: members are built in this order and destroyed in reverse,
+  // so no callback (from the spinner thread) can see an unbuilt or destroyed mutex or pass list.
   std::mutex mutex_;
   std::vector<Pass> passes_;
   Status status_;
+  ros::Subscriber sub_, status_sub_;
 };
 
 double maxDifference(const std::vector<float>& a, const std::vector<float>& b) {
