@@ -194,6 +194,27 @@ std::string shortest(double v) {
   return std::string(buffer, result.ptr);
 }
 
+/// `s` as a YAML double-quoted scalar that reads back as exactly `s`: quote, backslash and the
+/// ASCII control characters are escaped (other bytes are copied: what yaml-cpp parsed is UTF-8).
+std::string yamlQuoted(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20 || c == 0x7f) {
+      static const char* hex = "0123456789abcdef";
+      out += "\\x";
+      out += hex[c >> 4];
+      out += hex[c & 15];
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
+
 }  // namespace
 
 std::string ParamRef::valueString() const {
@@ -313,7 +334,8 @@ struct YamlWalker {
       if (!c.IsMap()) return fail(p + ": must be a map with name, a_m, b_m, radius_m");
       CapsuleShape cap;
       for (const auto& kv : c) {
-        const std::string sub = kv.first.as<std::string>();
+        if (!kv.first.IsScalar()) return fail(p + ": a key is not a string");
+        const std::string sub = kv.first.Scalar();
         try {
           if (sub == "name") {
             cap.name = kv.second.as<std::string>();
@@ -406,7 +428,13 @@ bool parseSceneYaml(const std::string& text, SceneConfig* scene, std::string* wh
     if (why) *why = "scene: the document must be a map of sections";
     return false;
   }
-  if (!walker.walk("", root)) return false;
+  try {
+    if (!walker.walk("", root)) return false;
+  } catch (const YAML::Exception& e) {
+    // Every conversion above catches its own; this is a safety net (the scene stays unchanged).
+    if (why) *why = std::string("scene: ") + e.what();
+    return false;
+  }
   if (!copy.validate(why)) return false;
   *scene = copy;
   return true;
@@ -448,13 +476,13 @@ std::string sceneToYaml(const SceneConfig& scene_in) {
       open.push_back(parts[k]);
     }
     std::string value = r.valueString();
-    if (r.type == ParamRef::Type::kString) value = "\"" + value + "\"";
+    if (r.type == ParamRef::Type::kString) value = yamlQuoted(value);
     out << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << value << "  # "
         << r.doc << "\n";
     if (r.name == "head.radii_m.z" && !scene.head.capsules.empty()) {
       out << "  capsules:  # neck, ears: points within radius_m of segment a_m-b_m (head frame, m)\n";
       for (const CapsuleShape& c : scene.head.capsules) {
-        out << "    - {name: \"" << c.name << "\", a_m: [" << shortest(c.a_m.x()) << ", "
+        out << "    - {name: " << yamlQuoted(c.name) << ", a_m: [" << shortest(c.a_m.x()) << ", "
             << shortest(c.a_m.y()) << ", " << shortest(c.a_m.z()) << "], b_m: ["
             << shortest(c.b_m.x()) << ", " << shortest(c.b_m.y()) << ", " << shortest(c.b_m.z())
             << "], radius_m: " << shortest(c.radius_m) << "}\n";
