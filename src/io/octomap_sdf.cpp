@@ -154,9 +154,9 @@ bool walkFull(const uint8_t* d, size_t n, size_t* pos, int depth, size_t node_by
 }
 
 /// Validates a node stream completely, then reads it into a fresh OcTree with octomap's own
-/// data reader. expected_nodes < 0: no node count to check. `what` prefixes messages.
+/// data reader. expected_nodes null: no node count to check. `what` prefixes messages.
 bool treeFromStream(const std::string& what, bool binary, const std::string& id, double res,
-                    const uint8_t* data, size_t n, int64_t expected_nodes,
+                    const uint8_t* data, size_t n, const uint64_t* expected_nodes,
                     std::unique_ptr<octomap::OcTree>* tree, std::string* error) {
   std::string canonical;
   if (!supportedId(id, &canonical)) {
@@ -185,9 +185,9 @@ bool treeFromStream(const std::string& what, bool binary, const std::string& id,
     s << what << ": " << n - pos << " unexpected bytes follow the end of the tree at byte " << pos;
     return fail(error, s.str());
   }
-  if (expected_nodes >= 0 && static_cast<uint64_t>(expected_nodes) != count) {
+  if (expected_nodes != nullptr && *expected_nodes != count) {
     std::ostringstream s;
-    s << what << ": the header says size " << expected_nodes << " but the data holds " << count
+    s << what << ": the header says size " << *expected_nodes << " but the data holds " << count
       << " nodes";
     return fail(error, s.str());
   }
@@ -333,7 +333,7 @@ bool octreeFromFileContents(const std::string& contents, std::unique_ptr<octomap
     if (size == 0) return fail(error, what + ": the tree is empty (size 0 in the header)");
     return treeFromStream(what + (binary ? " (.bt)" : " (.ot)"), binary, canonical, res,
                           reinterpret_cast<const uint8_t*>(contents.data()) + pos,
-                          contents.size() - pos, static_cast<int64_t>(size), tree, error);
+                          contents.size() - pos, &size, tree, error);
   } catch (const std::bad_alloc&) {
     return fail(error, what + ": out of memory");
   } catch (const std::exception& e) {
@@ -391,7 +391,7 @@ bool octreeFromMessagePayload(bool binary, const std::string& id, double resolut
   try {
     if (!tree) return fail(error, what + ": tree is null");
     return treeFromStream(what, binary, id, resolution,
-                          reinterpret_cast<const uint8_t*>(data.data()), data.size(), -1, tree,
+                          reinterpret_cast<const uint8_t*>(data.data()), data.size(), nullptr, tree,
                           error);
   } catch (const std::bad_alloc&) {
     return fail(error, what + ": out of memory");
