@@ -155,13 +155,23 @@ bool ObstacleCollisionConfig::validate(const std::string& p, std::string* why) c
 }
 
 bool SolverConfig::validate(const std::string& p, std::string* why) const {
-  return stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
+  const bool parts_ok = stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
          core.validate(p + "core.", why) && collision.validate(p + "collision.", why) &&
          integrator.validate(p + "integrator.", why) && curl.validate(p + "curl.", why) &&
          cohesion.validate(p + "cohesion.", why) && adhesion.validate(p + "adhesion.", why) &&
          stiffness.validate(p + "stiffness.", why) && obstacle.validate(p + "obstacle.", why) &&
          finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
          finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
+  if (!parts_ok) return false;
+  // sag_free: the bending spring is the only one that carries weight across an edge
+  // (sag_free.cpp).
+  if (sag_free && gravity_m_s2.squaredNorm() > 0.0 && !(bend.stiffness_n_per_m > 0.0)) {
+    if (why)
+      *why = p + "sag_free: needs " + p + "bend.stiffness_n_per_m > 0 under gravity (the bending "
+             "spring carries the weight across the edges)";
+    return false;
+  }
+  return true;
 }
 
 }  // namespace wet_curly_hair

@@ -43,7 +43,7 @@ double maxHeadPenetration(const HairModel& model, const HairState& state, const 
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
                    HairState* state) {
   EnergyParts e;
-  StrandScratch& scr = state->scratch;
+  StrandScratch& scr = state->scratch.front();
   for (int s = 0; s < model.strandCount(); ++s) {
     const int begin = model.strandBegin(s);
     const int n = model.strandSize(s);

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/sag_free.h"
 #include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
@@ -138,6 +139,10 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
     axis = (turn * (helix[size - 1] - helix[0])).normalized();
     m.helix_axis[s] = axis;
   }
+  // Sag-free start (method.md §8): the head starts at identity orientation in every scene
+  // (headPose(motion, 0) = motion.base, not a scene parameter), so gravity in the head frame is
+  // the world gravity.
+  if (config.sag_free) makeSagFree(config, config.gravity_m_s2, &m);
   *model = std::move(m);
 }
 

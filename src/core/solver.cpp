@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
@@ -28,9 +32,114 @@ int dampingPassCount(const HairModel& model, const SolverConfig& config, double 
   return passes;
 }
 
+double integratorTheta(const IntegratorConfig& config) {
+  if (config.method == "backward_euler") return 1.0;
+  if (config.method == "midpoint") return 0.5;
+  if (config.method == "theta") return config.theta;
+  return 0.0;
+}
+
+const char* stageName(int stage) {
+  static const char* const kNames[kStageCount] = {
+      "frames",    "forces",        "curl",         "adhesion", "integrate",      "head_collision",
+      "obstacle_collision", "strain_limit", "repair", "cohesion", "cohesion_forces"};
+  return stage >= 0 && stage < kStageCount ? kNames[stage] : "unknown";
+}
+
+void StepStats::accumulate(const StepStats& o) {
+  max_strain_before_limit = std::max(max_strain_before_limit, o.max_strain_before_limit);
+  strain_limited_edges += o.strain_limited_edges;
+  velocity_clamps += o.velocity_clamps;
+  head_contacts += o.head_contacts;
+  repaired_strands += o.repaired_strands;
+  curl_particle_substeps += o.curl_particle_substeps;
+  adhesion_particle_substeps += o.adhesion_particle_substeps;
+  adhesion_active += o.adhesion_active;
+  obstacle_particle_substeps += o.obstacle_particle_substeps;
+  obstacle_contacts += o.obstacle_contacts;
+  cohesion_particles += o.cohesion_particles;
+  wet_strands += o.wet_strands;
+  strands_near_obstacles += o.strands_near_obstacles;
+  for (int k = 0; k < kStageCount; ++k) {
+    stage_particles[k] += o.stage_particles[k];
+    stage_cpu_s[k] += o.stage_cpu_s[k];
+  }
+}
+
+namespace {
+
+/// Lap timer over the stages of one strand-substep: one clock read per stage, none without a
+/// clock. Always counts the particles each stage ran on.
+class StageLaps {
+ public:
+  StageLaps(ClockFn clock, StepStats* stats) : clock_(clock), stats_(stats) {
+    if (clock_) last_ = clock_();
+  }
+  void lap(int stage, uint64_t particles) {
+    stats_->stage_particles[stage] += particles;
+    if (!clock_) return;
+    const double now = clock_();
+    stats_->stage_cpu_s[stage] += now - last_;
+    last_ = now;
+  }
+  /// Starts the next lap without charging the time since the last one to any stage.
+  void skip() {
+    if (clock_) last_ = clock_();
+  }
+
+ private:
+  ClockFn clock_;
+  StepStats* stats_;
+  double last_ = 0.0;
+};
+
+/// d f / d e of f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b): k [P + (1 - L/|e|)
+/// (I - P)], the transverse term clamped at zero under compression so that the implicit system
+/// stays positive definite (the usual definiteness fix; the exact force is still applied).
+inline Mat3 axialSpringJacobian(const Vec3& e, double rest, double k, Mat3* projector) {
+  const double len = e.norm();
+  if (len < kDirectionEpsilon) {
+    projector->setZero();
+    return Mat3::Zero();
+  }
+  const Vec3 u = e / len;
+  *projector = u * u.transpose();
+  const double transverse = std::max(0.0, 1.0 - rest / len);
+  return k * (transverse * (Mat3::Identity() - *projector) + *projector);
+}
+
+}  // namespace
+
+namespace {
+
+bool stiffnessActive(const SolverConfig& config, const StrandFlags& flags) {
+  const StiffnessConfig& st = config.stiffness;
+  return st.global_factor < 1.0 || (flags.wet && st.wet_factor < 1.0) || st.dry_factor < 1.0;
+}
+
+}  // namespace
+
+void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
+                       const StrandFlags& flags, double h, const HairState& state,
+                       StrandScratch* scratch) {
+  if (!stiffnessActive(config, flags)) return;
+  const StiffnessConfig& st = config.stiffness;
+  const int begin = model.strandBegin(strand);
+  const double dry = stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h,
+                                     st.reference_step_s);
+  for (int i = 0; i < model.strandSize(strand); ++i) {
+    const double sigma = state.saturation[begin + i];
+    scratch->velocity_factor[i] =
+        sigma > 0.0 ? stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, sigma, h,
+                                      st.reference_step_s)
+                    : dry;
+  }
+}
+
 double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
                      int strand, const StrandFlags& flags, double s0, double s1, double h,
-                     HairState* state, StepStats* stats) {
+                     HairState* state, StrandScratch* scratch, StepStats* stats) {
+  StageLaps laps(inputs.clock, stats);
   const int begin = model.strandBegin(strand);
   const int n = model.strandSize(strand);
   const int edges = n - 1;
@@ -40,13 +149,15 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   const double* inv_m = &model.inv_mass[begin];
   const double* m = &model.mass_kg[begin];
   const double* rest = &model.rest_edge_m[begin];
-  StrandScratch& scr = state->scratch;
+  StrandScratch& scr = *scratch;
   Vec3* f = scr.force.data();
   Vec3* d = scr.smooth_bend.data();
   Vec3* b = scr.smooth_core.data();
   Vec3* nu = scr.smooth_vel.data();
   Mat3* frame = scr.frame.data();
   Vec3* target = scr.target.data();
+  const double theta = integratorTheta(config.integrator);
+  const bool implicit = theta > 0.0;
 
   // 1. Root: carried rigidly by the head, interpolated at this substep (§9.2 step 1). Its
   // velocity is the one that lands it exactly on the pose at the end of the substep.
@@ -65,6 +176,7 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   transportFrames(root_frame, d, edges, frame);
   for (int i = 0; i < edges; ++i) target[i] = frame[i] * model.bend_local_target[begin + i];
   smoothDifferences(p, n, model.beta_core[strand], b);
+  laps.lap(kStageFrames, n);
 
   // 3. Elastic forces and gravity; segment convention F_i += f, F_{i+1} -= f (A1).
   const Vec3 g = config.gravity_m_s2;
@@ -81,9 +193,12 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     f[i] += fs;
     f[i + 1] -= fs;
   }
+  laps.lap(kStageForces, n);
   // Curl exaggeration (eqs. 6-9, A6-A10), wet strands only: the strand's helix edges turned by
   // M (helix root-to-tip onto the hair's, A7), pulled on with the saturation of the edge.
-  if (flags.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0) {
+  const bool curl_stage = flags.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0;
+  const bool curl_spring = config.curl.mode == "spring";
+  if (curl_stage) {
     const Vec3 axis = p[n - 1] - p[0];
     const double len = axis.norm();
     // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
@@ -99,16 +214,16 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       }
     }
     const Mat3& rot = state->curl_rotation[strand];
-    const bool spring = config.curl.mode == "spring";
     for (int i = 0; i < edges; ++i) {
       const double s = 0.5 * (sigma[i] + sigma[i + 1]);
       if (s <= 0.0) continue;
       const Vec3 u = curlForce(rot * model.helix_edge[begin + i], p[i + 1] - p[i],
-                               config.curl.weight_n_per_m, s, spring);
+                               config.curl.weight_n_per_m, s, curl_spring);
       f[i + 1] += u;
       f[i] -= u;
     }
     stats->curl_particle_substeps += n;
+    laps.lap(kStageCurl, n);
   }
   // Adhesion (eqs. 11-12, A15-A16): wet particles between h/2 and h from an obstacle surface are
   // pulled toward it, with peak acceleration sigma * peak at 3h/4.
@@ -119,9 +234,10 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     const double hk = config.adhesion.radius_m;
     const bool literal = config.adhesion.literal_polynomial;
     const double scale = config.adhesion.peak_acceleration_m_s2 / adhesionKernelPeak(hk, literal);
+    uint64_t evaluated = 0;
     for (int i = 1; i < n; ++i) {
       if (sigma[i] <= 0.0) continue;
-      ++stats->adhesion_particle_substeps;
+      ++evaluated;
       Vec3 normal;
       const double dist = obstacles->distance(p[i], &normal);
       const double a = adhesionKernel(dist, hk, literal);
@@ -129,37 +245,101 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       f[i] -= (sigma[i] * m[i] * scale * a) * normal;
       ++stats->adhesion_active;
     }
+    stats->adhesion_particle_substeps += evaluated;
+    laps.lap(kStageAdhesion, evaluated);
   }
-  // 4. Velocity update (semi-implicit Euler), roots excluded.
-  for (int i = 1; i < n; ++i) v[i] += (h * inv_m[i]) * f[i];
 
-  // 5. Damping passes with tau = h / n_d (eq. 1, 4, 5 damping terms; §9.2 step 5).
   const double cs = config.stretch.damping_ns_per_m;
   const double cb = config.bend.damping_ns_per_m;
   const double cc = config.core.damping_ns_per_m;
-  const int passes = dampingPassCount(model, config, h);
-  const double tau = h / passes;
   // The perpendicular relative velocity of eq. (4) is measured in the frame turning with the
   // head: a strand co-rotating rigidly with the head has dv = omega x e, which the literal term
   // would drag on, bending steadily spinning hair by c_b omega / k_b (measured: 0.6 % of the
   // strand length at 0.25 rev/s). Subtracting omega x e makes the damping vanish on rigid
   // co-rotation and leaves it unchanged on a still head.
-  for (int pass = 0; pass < passes; ++pass) {
+  Vec3* v_start = scr.velocity_start.data();
+  if (!implicit || n < 2) {
+    // 4. Velocity update (semi-implicit Euler), roots excluded.
+    for (int i = 1; i < n; ++i) v[i] += (h * inv_m[i]) * f[i];
+    // 5. Damping passes with tau = h / n_d (eq. 1, 4, 5 damping terms; §9.2 step 5).
+    const int passes = dampingPassCount(model, config, h);
+    const double tau = h / passes;
+    for (int pass = 0; pass < passes; ++pass) {
+      if (cc > 0.0) smoothDifferences(v, n, model.beta_core[strand], nu);
+      for (int i = 0; i < n; ++i) f[i].setZero();
+      for (int i = 0; i < edges; ++i) {
+        const Vec3 e = p[i + 1] - p[i];
+        const Vec3 dv = v[i + 1] - v[i];
+        Vec3 fd = stretchDampingForce(e, dv, cs) + bendDampingForce(e, dv - omega.cross(e), cb);
+        if (cc > 0.0) fd += coreDampingForce(b[i], nu[i], cc);
+        f[i] += fd;
+        f[i + 1] -= fd;
+      }
+      for (int i = 1; i < n; ++i) v[i] += (tau * inv_m[i]) * f[i];
+    }
+  } else {
+    // 4-5 implicit: a theta method on the velocity u that moves the particles,
+    // x+ = x + h u, v+ = v + (u - v) / theta, with the forces linearised about the start of the
+    // substep: M (u - v) = theta h [f(x) + theta h K u + D(u)], D the damping (linear in the
+    // velocities; the core's, which acts on IIR-smoothed velocities, is taken at v and
+    // corrected by its local part). Per edge e = (i, i+1) the coupling block is
+    // G = theta h (C + theta h J) with J = d f_e / d e and C = d f_damp / d dv, so that
+    //   (m_i + G_{i-1} + G_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1} = m_i v_i + theta h f_i,
+    // a block-tridiagonal system solved root to tip (block Thomas), the root's u prescribed.
+    const double th = theta * h;
+    const double local_core = std::pow(1.0 - model.beta_core[strand], 2);  // d b_i / d e_i
+    const double kw = curl_stage && curl_spring ? config.curl.weight_n_per_m : 0.0;
     if (cc > 0.0) smoothDifferences(v, n, model.beta_core[strand], nu);
-    for (int i = 0; i < n; ++i) f[i].setZero();
+    Mat3* block = scr.edge_block.data();
     for (int i = 0; i < edges; ++i) {
       const Vec3 e = p[i + 1] - p[i];
       const Vec3 dv = v[i + 1] - v[i];
-      Vec3 fd = stretchDampingForce(e, dv, cs) + bendDampingForce(e, dv - omega.cross(e), cb);
-      if (cc > 0.0) fd += coreDampingForce(b[i], nu[i], cc);
-      f[i] += fd;
-      f[i + 1] -= fd;
+      Mat3 axis_projector, core_projector;
+      Mat3 jacobian = axialSpringJacobian(e, rest[i], ks, &axis_projector);
+      jacobian += axialSpringJacobian(b[i], model.core_rest_m[begin + i], kc * local_core,
+                                      &core_projector);
+      jacobian.diagonal().array() += kb;
+      if (kw > 0.0) jacobian.diagonal().array() += kw * 0.5 * (sigma[i] + sigma[i + 1]);
+      const Mat3 transverse = Mat3::Identity() - axis_projector;
+      const Mat3 damping = cs * axis_projector + cb * transverse + (cc * local_core) * core_projector;
+      block[i] = th * (damping + th * jacobian);
+      // Explicit remainders: the co-rotation part of the bend damping (constant in u) and the
+      // non-local part of the core damping.
+      Vec3 fe = -cb * (transverse * omega.cross(e));
+      if (cc > 0.0) fe += coreDampingForce(b[i], nu[i], cc) - (cc * local_core) * (core_projector * dv);
+      f[i] += fe;
+      f[i + 1] -= fe;
     }
-    for (int i = 1; i < n; ++i) v[i] += (tau * inv_m[i]) * f[i];
+    Vec3* rhs = scr.rhs.data();
+    Mat3* pivot_inverse = scr.pivot_inverse.data();
+    for (int i = 0; i < n; ++i) v_start[i] = v[i];
+    for (int i = 1; i < n; ++i) rhs[i] = m[i] * v[i] + th * f[i];
+    rhs[1] += block[0] * v[0];  // the prescribed root velocity moved to the right-hand side
+    // Forward elimination.
+    for (int i = 1; i < n; ++i) {
+      Mat3 pivot = block[i - 1];
+      pivot.diagonal().array() += m[i];
+      if (i < edges) pivot += block[i];
+      if (i > 1) {
+        const Mat3 w = block[i - 1] * pivot_inverse[i - 1];
+        pivot -= w * block[i - 1];
+        rhs[i] += w * rhs[i - 1];
+      }
+      pivot_inverse[i] = pivot.inverse();
+    }
+    // Back substitution: u into v.
+    v[n - 1] = pivot_inverse[n - 1] * rhs[n - 1];
+    for (int i = n - 2; i >= 1; --i) v[i] = pivot_inverse[i] * (rhs[i] + block[i] * v[i + 1]);
+    const double inv_theta = 1.0 / theta;
+    for (int i = 1; i < n; ++i) v[i] = v_start[i] + inv_theta * (v[i] - v_start[i]);
   }
   // Velocity clamp root -> tip (Iben §2.2a): at most strain_rate_limit of strain per substep.
+  // Explicit only: it keeps the explicit stretch spring stable. Applied to v+ of a theta method
+  // it breaks the scheme's consistency (v+ = v + (u - v) / theta rings in stiff modes, the clamp
+  // cuts one sign of it): measured, midpoint at 1e-3 s on the built-in scene reached strain
+  // 13.6 before limiting with the clamp and 0.035 without. The implicit solve holds the stretch.
   const double rate = config.stretch.strain_rate_limit_per_substep / h;
-  for (int i = 0; i < edges; ++i) {
+  for (int i = 0; i < (implicit ? 0 : edges); ++i) {
     const Vec3 vnew = clampAxialRelativeVelocity(p[i + 1] - p[i], v[i], v[i + 1], rate * rest[i]);
     if (vnew != v[i + 1]) {
       v[i + 1] = vnew;
@@ -170,14 +350,10 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   // 6. Stiffness, eq. (13) (A17): v <- (xi zeta_i)^(h / h_ref) v, on the velocity relative to the
   // head's rigid motion (or the absolute velocity, literal option).
   const StiffnessConfig& st = config.stiffness;
-  if (st.global_factor < 1.0 || (flags.wet && st.wet_factor < 1.0) || st.dry_factor < 1.0) {
-    const double dry = stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h,
-                                       st.reference_step_s);
+  if (stiffnessActive(config, flags)) {
+    const double* factor = scr.velocity_factor.data();  // prepareStrandStep()
     for (int i = 1; i < n; ++i) {
-      const double k = sigma[i] > 0.0 ? stiffnessFactor(st.global_factor, st.wet_factor,
-                                                         st.dry_factor, sigma[i], h,
-                                                         st.reference_step_s)
-                                      : dry;
+      const double k = factor[i];
       if (st.relative_to_head) {
         const Vec3 carried = head_velocity + omega.cross(p[i] - pose0.translation);
         v[i] = carried + k * (v[i] - carried);
@@ -187,9 +363,15 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     }
   }
 
-  // 8. Position update.
+  // 8. Position update: with the new velocity (explicit), with the theta-weighted one (implicit,
+  // equal to the solved u unless the clamp or eq. 13 changed v+).
   p[0] = root_next;
-  for (int i = 1; i < n; ++i) p[i] += h * v[i];
+  if (!implicit) {
+    for (int i = 1; i < n; ++i) p[i] += h * v[i];
+  } else {
+    for (int i = 1; i < n; ++i) p[i] += h * ((1.0 - theta) * v_start[i] + theta * v[i]);
+  }
+  laps.lap(kStageIntegrate, n);
 
   // 7. Head collision (§6): projection to the offset surface, inelastic, Coulomb friction. The
   // head's velocity at the particle comes from the two interpolated poses.
@@ -206,18 +388,20 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
       ++stats->head_contacts;
     }
+    laps.lap(kStageHeadCollision, n - 1);
   }
   // External obstacles (static in the world), same response, their own offset and friction.
   if (obstacle_stage && config.obstacle.enabled) {
     const double delta = config.obstacle.offset_m;
     const double mu = config.obstacle.friction;
     for (int i = 1; i < n; ++i) {
-      ++stats->obstacle_particle_substeps;
       Vec3 normal;
       const double dist = obstacles->distance(p[i], &normal);
       if (collideParticle(dist, normal, delta, mu, Vec3::Zero(), &p[i], &v[i]))
         ++stats->obstacle_contacts;
     }
+    stats->obstacle_particle_substeps += n - 1;
+    laps.lap(kStageObstacleCollision, n - 1);
   }
 
   // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
@@ -242,10 +426,19 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       ++stats->strain_limited_edges;
     }
   }
+  laps.lap(kStageStrainLimit, n - 1);
   return max_strain;
 }
 
 namespace {
+
+int ompThreadIndex() {
+#ifdef _OPENMP
+  return omp_get_thread_num();
+#else
+  return 0;
+#endif
+}
 
 /// True when every position and velocity of the strand is finite; counts non-finite scalars.
 bool strandFinite(const HairModel& model, int s, const HairState& state, uint64_t* nonfinite) {
@@ -312,6 +505,7 @@ void repairStrand(const HairModel& model, const StepInputs& inputs, int s, HairS
 void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
           HairState* state, StepStats* stats) {
   StepStats local;
+  const double wall_start = inputs.clock ? inputs.clock() : 0.0;
   const int nsub = substepCount(config, dt_s);
   local.substeps = nsub;
   local.substep_s = nsub > 0 ? dt_s / nsub : 0.0;
@@ -321,34 +515,55 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   }
   const double h = dt_s / nsub;
   const int strands = model.strandCount();
+  const int threads =
+      std::max(1, std::min(config.integrator.threads, static_cast<int>(state->scratch.size())));
+  // Per-thread counters, summed in thread order afterwards (integers and maxima: the sums do not
+  // depend on which thread ran which strand). On the stack: a step allocates nothing.
+  StepStats per_thread[kMaxSolverThreads];
   const bool force_cohesion = config.cohesion.mode == "lin" || config.cohesion.mode == "kim";
   if (force_cohesion) {
     // The force-based baselines couple strands: substeps outside, strands inside, the
     // cross-strand forces evaluated at every substep.
     for (int k = 0; k < nsub; ++k) {
+      const double t0 = inputs.clock ? inputs.clock() : 0.0;
       computeCohesionForces(model, config.cohesion, state);
+      local.stage_particles[kStageCohesionForces] += model.particleCount();
+      if (inputs.clock) local.stage_cpu_s[kStageCohesionForces] += inputs.clock() - t0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
       for (int s = 0; s < strands; ++s) {
+        const int t = ompThreadIndex();
         StrandFlags flags = strandFlags(model, config, inputs, s, *state);
         flags.external_force = true;
-        const double strain = substepStrand(model, config, inputs, s, flags, double(k) / nsub,
-                                            double(k + 1) / nsub, h, state, &local);
-        local.max_strain_before_limit = std::max(local.max_strain_before_limit, strain);
+        StepStats& ts = per_thread[t];
+        prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
+        const double strain =
+            substepStrand(model, config, inputs, s, flags, double(k) / nsub, double(k + 1) / nsub,
+                          h, state, &state->scratch[t], &ts);
+        ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
     }
   } else {
-    // Strands couple only through per-step outputs: each strand runs all its substeps at once.
+    // Strands couple only through per-step outputs: each strand runs all its substeps at once,
+    // while its particles stay in cache; strands are shared among the threads.
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
     for (int s = 0; s < strands; ++s) {
+      const int t = ompThreadIndex();
+      StepStats& ts = per_thread[t];
       const StrandFlags flags = strandFlags(model, config, inputs, s, *state);
-      local.wet_strands += flags.wet;
-      local.strands_near_obstacles += flags.near_obstacle;
+      ts.wet_strands += flags.wet;
+      ts.strands_near_obstacles += flags.near_obstacle;
+      prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
       for (int k = 0; k < nsub; ++k) {
-        const double strain = substepStrand(model, config, inputs, s, flags, double(k) / nsub,
-                                            double(k + 1) / nsub, h, state, &local);
-        local.max_strain_before_limit = std::max(local.max_strain_before_limit, strain);
+        const double strain =
+            substepStrand(model, config, inputs, s, flags, double(k) / nsub, double(k + 1) / nsub,
+                          h, state, &state->scratch[t], &ts);
+        ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
     }
   }
+  for (int t = 0; t < threads; ++t) local.accumulate(per_thread[t]);
   // Detect, repair and count numerical trouble, strand by strand (style.md §11).
+  const double repair_start = inputs.clock ? inputs.clock() : 0.0;
   for (int s = 0; s < strands; ++s) {
     uint64_t nonfinite = 0;
     const bool finite = strandFinite(model, s, *state, &nonfinite);
@@ -369,8 +584,17 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
       ++state->warnings.strain_repairs;
     }
   }
+  local.stage_particles[kStageRepair] += model.particleCount();
+  const double cohesion_start = inputs.clock ? inputs.clock() : 0.0;
+  if (inputs.clock) local.stage_cpu_s[kStageRepair] += cohesion_start - repair_start;
   // Stable cohesion (eq. 10): display positions after the step, never fed back (A14).
-  local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state);
+  local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state, threads);
+  local.stage_particles[kStageCohesion] += local.cohesion_particles;
+  if (inputs.clock) {
+    const double now = inputs.clock();
+    local.stage_cpu_s[kStageCohesion] += now - cohesion_start;
+    local.wall_s = now - wall_start;
+  }
   state->time_s += dt_s;
   ++state->step_count;
   state->substep_count += nsub;

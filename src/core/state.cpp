@@ -11,6 +11,11 @@ void StrandScratch::resize(int n) {
   smooth_vel.assign(n, Vec3::Zero());
   frame.assign(n, Mat3::Identity());
   target.assign(n, Vec3::Zero());
+  velocity_start.assign(n, Vec3::Zero());
+  rhs.assign(n, Vec3::Zero());
+  edge_block.assign(n, Mat3::Zero());
+  pivot_inverse.assign(n, Mat3::Identity());
+  velocity_factor.assign(n, 1.0);
 }
 
 void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_offsets) {
@@ -20,6 +25,9 @@ void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_off
   sorted.assign(particles, 0);
   cell_of.assign(particles, 0);
   strand_of.assign(particles, 0);
+  sorted_key.assign(particles, 0);
+  sorted_strand.assign(particles, 0);
+  sorted_position.assign(particles, Vec3::Zero());
   for (size_t s = 0; s + 1 < strand_offsets.size(); ++s)
     for (uint32_t i = strand_offsets[s]; i < strand_offsets[s + 1]; ++i) strand_of[i] = s;
 }
@@ -53,7 +61,8 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.density.assign(n, 0.0);
   state.normal_scratch.assign(n, Vec3::Zero());
   state.grid.resize(n, model.strand_offsets);
-  state.scratch.resize(model.max_strand_size);
+  state.scratch.resize(kMaxSolverThreads);
+  for (StrandScratch& scratch : state.scratch) scratch.resize(model.max_strand_size);
   resetState(model, head_pose, head_twist, &state);
   return state;
 }

@@ -51,14 +51,28 @@ std::string RunSummary::toJson() const {
       .add("cohesion_particles", static_cast<unsigned long long>(cohesion_particles))
       .add("sdf_build_s", sdf_build_s)
       .add("max_obstacle_penetration_m", max_obstacle_penetration_m)
+      .add("integrator", integrator)
+      .add("threads", threads)
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
       .add("max_speed_m_s", max_speed_m_s);
+  JsonObject stages;
+  for (size_t k = 0; k < stage_particles.size() && k < stage_cpu_s.size(); ++k) {
+    JsonObject stage;
+    stage.add("particles", static_cast<unsigned long long>(stage_particles[k]))
+        .add("cpu_s", stage_cpu_s[k]);
+    stages.addObject(stageName(static_cast<int>(k)), stage);
+  }
+  o.addObject("stages", stages);
   return o.str();
 }
 
 namespace {
+
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
 
 bool writeFrame(const std::string& dir, int frame, const HairModel& model, const HairState& state,
                 std::string* why) {
@@ -88,6 +102,10 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     }
   }
   RunSummary s;
+  s.integrator = scene.solver.integrator.method;
+  s.threads = scene.solver.integrator.threads;
+  s.stage_particles.assign(kStageCount, 0);
+  s.stage_cpu_s.assign(kStageCount, 0.0);
   const HeadMotionConfig& motion = scene.motion;
   HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
   if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
@@ -186,7 +204,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
           s.max_tangles, tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid));
     }
   };
-  record(0, 0.0, headPose(motion, 0.0));
+  if (options.measure) record(0, 0.0, headPose(motion, 0.0));
+  if (options.on_frame) options.on_frame(0, state);
   if (!options.hair_frames_dir.empty()) {
     if (!writeFrame(options.hair_frames_dir, 0, model, state, why)) return false;
     ++s.hair_frames_written;
@@ -197,10 +216,15 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     in.head_start = headPose(motion, f * frame);
     in.head_end = headPose(motion, (f + 1) * frame);
     in.obstacles = obstacles.empty() ? nullptr : &obstacles;
+    in.clock = options.stage_timing ? &steadySeconds : nullptr;
     StepStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     step(model, scene.solver, in, frame, &state, &stats);
     wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    for (int k = 0; k < kStageCount; ++k) {
+      s.stage_particles[k] += stats.stage_particles[k];
+      s.stage_cpu_s[k] += stats.stage_cpu_s[k];
+    }
     s.max_strain_before_limit = std::max(s.max_strain_before_limit, stats.max_strain_before_limit);
     s.velocity_clamps += stats.velocity_clamps;
     s.strain_limited_edges += stats.strain_limited_edges;
@@ -208,7 +232,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     s.adhesion_active += stats.adhesion_active;
     s.obstacle_contacts += stats.obstacle_contacts;
     s.cohesion_particles += stats.cohesion_particles;
-    record(f + 1, (f + 1) * frame, in.head_end);
+    if (options.measure) record(f + 1, (f + 1) * frame, in.head_end);
+    if (options.on_frame) options.on_frame(static_cast<int>(f + 1), state);
     if (!options.hair_frames_dir.empty() && (f + 1) % options.hair_stride == 0) {
       if (!writeFrame(options.hair_frames_dir, static_cast<int>(f + 1), model, state, why))
         return false;
@@ -234,12 +259,12 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.steps = state.step_count;
   s.sim_s = frames * frame;
   s.wall_s = wall;
-  s.mean_strain /= static_cast<double>(s.time_s.size());
+  if (!s.time_s.empty()) s.mean_strain /= static_cast<double>(s.time_s.size());
   s.repairs = state.warnings.total();
   s.nonfinite_values = state.warnings.nonfinite_values;
   s.finite = state.warnings.nonfinite_repairs == 0;
   for (const Vec3& p : state.position) s.finite = s.finite && p.allFinite();
-  s.max_speed_end_m_s = s.max_speed_m_s.back();
+  s.max_speed_end_m_s = s.max_speed_m_s.empty() ? maxSpeed(model, state) : s.max_speed_m_s.back();
   *out = std::move(s);
   return true;
 }

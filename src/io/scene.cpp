@@ -115,9 +115,17 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   b("solver.collision.head_enabled", &c.collision.head_enabled, "collide with the head", false);
   d("solver.collision.offset_m", &c.collision.offset_m, "collision offset delta, m", false);
   d("solver.collision.friction", &c.collision.friction, "Coulomb friction mu", false);
+  str("solver.integrator.method", &c.integrator.method,
+      "explicit, backward_euler, midpoint or theta (README \"Speed against error\")", false);
   d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);
+  d("solver.integrator.theta", &c.integrator.theta, "theta of method theta, [0.5, 1]", false);
+  i("solver.integrator.threads", &c.integrator.threads, "solver threads (results identical)",
+    false);
   i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
   addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
+  b("solver.sag_free", &c.sag_free,
+    "solve rest lengths and bend targets so the groom hangs still (README \"Sag-free start\")",
+    true);
   b("solver.curl.enabled", &c.curl.enabled, "curl exaggeration on wet particles (eqs. 6-9)", false);
   str("solver.curl.mode", &c.curl.mode, "spring (A10 restoring) or literal (eq. 9 couple)", false);
   d("solver.curl.weight_n_per_m", &c.curl.weight_n_per_m, "w_h, N/m", false);
@@ -266,6 +274,7 @@ bool applyParameters(const std::vector<std::string>& names, const std::vector<do
   SceneConfig copy = *scene;
   const std::vector<ParamRef> table = parameterTable(&copy);
   bool rebuild = false;
+  bool sag_input = false;
   for (size_t k = 0; k < names.size(); ++k) {
     const ParamRef* ref = nullptr;
     for (const ParamRef& r : table)
@@ -276,7 +285,13 @@ bool applyParameters(const std::vector<std::string>& names, const std::vector<do
     }
     if (!ref->setFromDouble(values[k], why)) return false;
     rebuild = rebuild || ref->needs_rebuild;
+    // The sag-free rest parameters are solved from these too (sag_free.cpp).
+    sag_input = sag_input || ref->name.rfind("solver.gravity_m_s2.", 0) == 0 ||
+                ref->name == "solver.stretch.stiffness_n_per_m" ||
+                ref->name == "solver.stretch.strain_limit" ||
+                ref->name == "solver.bend.stiffness_n_per_m";
   }
+  rebuild = rebuild || (sag_input && copy.solver.sag_free);
   if (!copy.validate(why)) return false;
   *scene = copy;
   if (needs_rebuild) *needs_rebuild = rebuild;

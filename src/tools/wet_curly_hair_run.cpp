@@ -19,7 +19,9 @@ const char* kUsage =
     "                          [--saturation ROOT,TIP] [--cohesion ours|lin|kim|off]\n"
     "                          [--obstacle sphere:x=..,y=..,z=..,r=..]... (also box:, plane:)\n"
     "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
-    "                          [--sdf-resolution M]\n"
+    "                          [--sdf-resolution M] [--integrator NAME] [--substep S]\n"
+    "                          [--threads N] [--no-stage-timing]\n"
+    "integrators: explicit, backward_euler, midpoint, theta (--set solver.integrator.theta=T)\n"
     "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, shake:freq_hz=F,amplitude_rad=A,\n"
     "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, axis_x/y/z)\n";
 
@@ -144,6 +146,17 @@ int main(int argc, char** argv) {
     } else if (a == "--sdf-resolution") {
       ok = next(&v) && parseNumber(a, v, &x, &why);
       overrides.emplace_back("obstacle_map.resolution_m", v);
+    } else if (a == "--integrator") {
+      ok = next(&v);
+      overrides.emplace_back("solver.integrator.method", v);
+    } else if (a == "--substep") {
+      ok = next(&v) && parseNumber(a, v, &x, &why);
+      overrides.emplace_back("solver.integrator.substep_s", v);
+    } else if (a == "--threads") {
+      ok = next(&v) && parseNumber(a, v, &x, &why);
+      overrides.emplace_back("solver.integrator.threads", v);
+    } else if (a == "--no-stage-timing") {
+      options.stage_timing = false;
     } else if (a == "--print-scene") {
       print_scene = true;
     } else {

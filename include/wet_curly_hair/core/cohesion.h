@@ -3,6 +3,8 @@
 // §4 Kim et al. 2017, §5 Lin 2015: their exact laws are not public, these are our readings).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "wet_curly_hair/core/config.h"
@@ -12,11 +14,14 @@
 namespace wet_curly_hair {
 
 /// Sorts the particles into the hashed uniform grid with cell size cell_m (no allocation).
-void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* grid);
+void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* grid,
+                       int threads = 1);
 
-/// Calls fn(j, r2) for every particle j of ANOTHER strand within radius_m of x (radius_m <= the
-/// grid's cell size). Hash collisions are filtered by the distance test and each bucket is
-/// visited once.
+/// Calls fn(j, r2) for every particle j of ANOTHER strand within radius_m of x, in an order that
+/// depends only on the positions (never on threads). Any radius works: the cells within reach of
+/// x are visited once each (cells wholly beyond radius_m skipped), and within a hashed bucket only
+/// the entries of the visited cell are tested. `positions` are the grid's (unused: the grid holds
+/// a sorted copy for locality; kept for the call sites' clarity).
 template <typename Fn>
 void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positions,
                                 uint32_t strand, const Vec3& x, double radius_m, Fn fn);
@@ -27,7 +32,8 @@ void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positi
 /// particles within h, self included). Dry particles and isolated ones keep p^w = p. Writes
 /// state->wet_position only; the dynamics never read it. Returns the number of wet particles
 /// that found neighbours.
-int computeDisplayCohesion(const HairModel& model, const CohesionConfig& config, HairState* state);
+int computeDisplayCohesion(const HairModel& model, const CohesionConfig& config, HairState* state,
+                           int threads = 1);
 
 /// Force-based baselines into state->external_force (N), zero for dry particles:
 /// "lin" (reconstruction of Lin 2015): a spring between particles of different strands within
@@ -47,32 +53,48 @@ inline uint32_t cellHash(int64_t ix, int64_t iy, int64_t iz, uint32_t mask) {
 inline int64_t cellCoord(double x, double cell) {
   return static_cast<int64_t>(std::floor(x / cell));
 }
+/// A cell's identity (21 bits per axis, wrapping: cells 2^21 apart share a key and are told
+/// apart by the distance test).
+inline uint64_t cellKey(int64_t ix, int64_t iy, int64_t iz) {
+  constexpr uint64_t m = (uint64_t{1} << 21) - 1;
+  return (static_cast<uint64_t>(ix) & m) | ((static_cast<uint64_t>(iy) & m) << 21) |
+         ((static_cast<uint64_t>(iz) & m) << 42);
+}
 }  // namespace detail
 
 template <typename Fn>
-void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positions,
+void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& /*positions*/,
                                 uint32_t strand, const Vec3& x, double radius_m, Fn fn) {
   const uint32_t mask = static_cast<uint32_t>(grid.cell_start.size() - 2);
-  const int64_t cx = detail::cellCoord(x.x(), grid.cell_m);
-  const int64_t cy = detail::cellCoord(x.y(), grid.cell_m);
-  const int64_t cz = detail::cellCoord(x.z(), grid.cell_m);
-  uint32_t buckets[27];
-  int count = 0;
-  for (int dz = -1; dz <= 1; ++dz)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const uint32_t b = detail::cellHash(cx + dx, cy + dy, cz + dz, mask);
-        bool seen = false;
-        for (int k = 0; k < count; ++k) seen = seen || buckets[k] == b;
-        if (!seen) buckets[count++] = b;
-      }
+  const double cell = grid.cell_m;
+  const int64_t cx = detail::cellCoord(x.x(), cell);
+  const int64_t cy = detail::cellCoord(x.y(), cell);
+  const int64_t cz = detail::cellCoord(x.z(), cell);
+  const int64_t reach = std::max<int64_t>(1, static_cast<int64_t>(std::ceil(radius_m / cell)));
   const double r2max = radius_m * radius_m;
-  for (int k = 0; k < count; ++k) {
-    for (uint32_t idx = grid.cell_start[buckets[k]]; idx < grid.cell_start[buckets[k] + 1]; ++idx) {
-      const uint32_t j = grid.sorted[idx];
-      if (grid.strand_of[j] == strand) continue;
-      const double r2 = (positions[j] - x).squaredNorm();
-      if (r2 < r2max) fn(j, r2);
+  // Distance from x to the slab of cell offset d along one axis (0 inside).
+  auto gap = [cell](double xc, int64_t c, int64_t d) {
+    if (d == 0) return 0.0;
+    const double lo = double(c + d) * cell;
+    return d > 0 ? lo - xc : xc - (lo + cell);
+  };
+  for (int64_t dz = -reach; dz <= reach; ++dz) {
+    const double gz = gap(x.z(), cz, dz);
+    if (gz * gz >= r2max) continue;
+    for (int64_t dy = -reach; dy <= reach; ++dy) {
+      const double gy = gap(x.y(), cy, dy);
+      if (gz * gz + gy * gy >= r2max) continue;
+      for (int64_t dx = -reach; dx <= reach; ++dx) {
+        const double gx = gap(x.x(), cx, dx);
+        if (gz * gz + gy * gy + gx * gx >= r2max) continue;
+        const uint64_t key = detail::cellKey(cx + dx, cy + dy, cz + dz);
+        const uint32_t b = detail::cellHash(cx + dx, cy + dy, cz + dz, mask);
+        for (uint32_t idx = grid.cell_start[b]; idx < grid.cell_start[b + 1]; ++idx) {
+          if (grid.sorted_key[idx] != key || grid.sorted_strand[idx] == strand) continue;
+          const double r2 = (grid.sorted_position[idx] - x).squaredNorm();
+          if (r2 < r2max) fn(grid.sorted[idx], r2);
+        }
+      }
     }
   }
 }

@@ -144,6 +144,11 @@ struct SolverConfig {
   StiffnessConfig stiffness;
   ObstacleCollisionConfig obstacle;
   Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);  ///< world frame, m/s^2.
+  /// Sag-free start (method.md §8, README "Sag-free start"): buildModel solves the stretch rest
+  /// lengths and bending targets so that the groom is an equilibrium under gravity_m_s2 on the
+  /// head at its start pose (identity orientation, as every scene starts; makeSagFree takes
+  /// another head-frame gravity). Needs bend.stiffness_n_per_m > 0 when gravity is not zero.
+  bool sag_free = false;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

@@ -11,12 +11,39 @@
 
 namespace wet_curly_hair {
 
+/// A monotonic clock in seconds, supplied by the caller: the core never reads a clock itself.
+using ClockFn = double (*)();
+
 /// What the world tells the solver for one step.
 struct StepInputs {
   Pose head_start;  ///< head -> world at the start of the step.
   Pose head_end;    ///< head -> world at the end; roots are interpolated at every substep.
   const Obstacles* obstacles = nullptr;  ///< external obstacles (world frame); null: none.
+  /// When set, every stage of the step is timed with it (StepStats::stage_cpu_s). Costs two
+  /// clock reads per stage and strand-substep (~2 % of a dry explicit substep, measured in
+  /// bench/wet_curly_hair_bench).
+  ClockFn clock = nullptr;
 };
+
+/// The stages of a step, in the order they run ("model only what a scene needs": each reports
+/// how many particles it touched and how long it took).
+enum Stage : int {
+  kStageFrames = 0,         ///< smoothed curves, frames, bend targets (per substep)
+  kStageForces,             ///< gravity, stretch, bend and core springs (per substep)
+  kStageCurl,               ///< curl exaggeration, wet strands (per substep)
+  kStageAdhesion,           ///< adhesion, wet particles within obstacle reach (per substep)
+  kStageIntegrate,          ///< velocity update with damping (explicit) or the implicit solve
+  kStageHeadCollision,      ///< head collision (per substep)
+  kStageObstacleCollision,  ///< obstacle collision, strands within reach (per substep)
+  kStageStrainLimit,        ///< strain limiting (per substep)
+  kStageRepair,             ///< finite/strain checks and repairs (per step)
+  kStageCohesion,           ///< stable cohesion display positions (per step)
+  kStageCohesionForces,     ///< force-based baselines lin/kim (per substep, all strands)
+  kStageCount
+};
+
+/// Stable snake_case name of a stage ("frames", "forces", ...).
+const char* stageName(int stage);
 
 /// Counters of one step (what ran, what was clamped, what was repaired).
 struct StepStats {
@@ -36,6 +63,13 @@ struct StepStats {
   uint64_t cohesion_particles = 0;         ///< wet particles that found cross-strand neighbours.
   uint64_t wet_strands = 0;                ///< strands with any saturation.
   uint64_t strands_near_obstacles = 0;     ///< strands whose reach touches an obstacle.
+  /// Per stage: particles it ran on (particle-substeps for per-substep stages, particles for
+  /// per-step ones) and CPU seconds summed over the solver threads (only with inputs.clock).
+  uint64_t stage_particles[kStageCount] = {};
+  double stage_cpu_s[kStageCount] = {};
+  double wall_s = 0.0;  ///< the whole step, wall clock (only with inputs.clock).
+  /// Adds the counters of `o` (sums; maxima for max_strain_before_limit).
+  void accumulate(const StepStats& o);
 };
 
 /// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s.
@@ -51,8 +85,6 @@ int dampingPassCount(const HairModel& model, const SolverConfig& config, double 
 void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
           HairState* state, StepStats* stats);
 
-/// Advances one strand by one substep h from time fraction s0 to s1 of the step (exposed for
-/// tests). Returns the largest strain before limiting.
 /// Per-strand flags of one step: which optional stages the strand needs.
 struct StrandFlags {
   bool wet = false;             ///< any particle with saturation > 0.
@@ -60,8 +92,20 @@ struct StrandFlags {
   bool external_force = false;  ///< state->external_force holds cross-strand forces.
 };
 
+/// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
+/// (the eq. 13 velocity factors). Call before substepStrand on a strand.
+void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
+                       const StrandFlags& flags, double h, const HairState& state,
+                       StrandScratch* scratch);
+
+/// Advances one strand by one substep h from time fraction s0 to s1 of the step with the
+/// configured integrator, using `scratch` prepared by prepareStrandStep (exposed for tests).
+/// Returns the largest strain before limiting.
 double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
                      int strand, const StrandFlags& flags, double s0, double s1, double h,
-                     HairState* state, StepStats* stats);
+                     HairState* state, StrandScratch* scratch, StepStats* stats);
+
+/// Theta of the implicit methods (1 backward Euler, 1/2 midpoint); 0 for "explicit".
+double integratorTheta(const IntegratorConfig& config);
 
 }  // namespace wet_curly_hair

@@ -25,6 +25,16 @@ struct StrandScratch {
   Vec3List smooth_vel;  ///< nu of eq. (5), per edge.
   Mat3List frame;       ///< per edge.
   Vec3List target;      ///< t_i per edge.
+  // Implicit integrators only: the velocity at the start of the substep, the right-hand side
+  // (then the forward-eliminated one), the per-edge coupling blocks and the inverted pivots of
+  // the block-tridiagonal solve.
+  Vec3List velocity_start;
+  Vec3List rhs;
+  Mat3List edge_block;
+  Mat3List pivot_inverse;
+  /// Eq. (13) velocity factor per particle for the current strand and substep length (the
+  /// saturation is constant within a step): computed once per strand and step, not per substep.
+  std::vector<double> velocity_factor;
   void resize(int max_strand_size);
 };
 
@@ -36,6 +46,10 @@ struct NeighborGrid {
   std::vector<uint32_t> sorted;      ///< particle indices grouped by cell hash.
   std::vector<uint32_t> cell_of;     ///< per particle: its hashed cell.
   std::vector<uint32_t> strand_of;   ///< per particle: its strand.
+  // In sorted order, for locality: each entry's cell key, strand and position.
+  std::vector<uint64_t> sorted_key;
+  std::vector<uint32_t> sorted_strand;
+  Vec3List sorted_position;
   void resize(int particles, const std::vector<uint32_t>& strand_offsets);
 };
 
@@ -58,7 +72,8 @@ struct HairState {
   uint64_t step_count = 0;
   uint64_t substep_count = 0;
   WarningStats warnings;
-  StrandScratch scratch;
+  /// One per solver thread (config.integrator.threads <= kMaxSolverThreads).
+  std::vector<StrandScratch> scratch;
 };
 
 /// Allocates the state for a model and places the hair in its rest pose, carried by `head_pose`

@@ -3,9 +3,11 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
+#include "wet_curly_hair/core/state.h"
 #include "wet_curly_hair/io/scene.h"
 
 namespace wet_curly_hair {
@@ -14,6 +16,13 @@ namespace io {
 struct RunOptions {
   std::string hair_frames_dir;  ///< when set, frame_%05d.hair is written every hair_stride frames.
   int hair_stride = 1;
+  /// Time every solver stage (StepInputs::clock); the figures land in RunSummary::stage_cpu_s.
+  bool stage_timing = true;
+  /// Called after every output frame (frame 0 is the initial state) with the state: benchmarks
+  /// read the output positions here. Not timed.
+  std::function<void(int frame, const HairState& state)> on_frame;
+  /// Skip the per-frame measurements (energy, strain, tangles, jitter...): only the step runs.
+  bool measure = true;
   /// Frames that are written hold the output positions (p^w under "ours" cohesion).
 };
 
@@ -56,6 +65,12 @@ struct RunSummary {
   uint64_t cohesion_particles = 0;  ///< summed over steps.
   double sdf_build_s = 0.0;         ///< OctoMap -> signed distance field build time, s.
   double max_obstacle_penetration_m = 0.0;  ///< deepest penetration into an obstacle, any frame.
+  std::string integrator;                   ///< solver.integrator.method
+  int threads = 1;                          ///< solver.integrator.threads
+  /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
+  /// seconds (all threads).
+  std::vector<uint64_t> stage_particles;
+  std::vector<double> stage_cpu_s;
   std::string toJson() const;
 };
 

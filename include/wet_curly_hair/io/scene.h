@@ -85,7 +85,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* scene);
 
 /// Applies name/value pairs all-or-nothing: on any unknown name, bad type or failed validation,
 /// *scene is unchanged and *why names the parameter. *needs_rebuild tells whether a change
-/// touched the groom, head or smoothing lengths (the model must be rebuilt).
+/// touched the groom, head or smoothing lengths (the model must be rebuilt), or, with
+/// solver.sag_free on, an input of the sag-free solve (gravity, k_s, k_b, strain limit).
 bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
                      SceneConfig* scene, bool* needs_rebuild, std::string* why);
 

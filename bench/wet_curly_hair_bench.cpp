@@ -1,0 +1,416 @@
+// wet_curly_hair_bench: speed against error (issue "Speed against error").
+//
+// For each benchmark scene, runs every solver setting (integrator x substep) and a reference (the
+// explicit integrator at a substep 16 times smaller than the smallest benchmarked, checked against
+// one 32 times smaller), and writes per setting: wall seconds per simulated second (median of
+// --repeats runs, solver step only), RMS and max particle error against the reference over the
+// output frames divided by the mean strand length, and whether the run stayed stable. Then the
+// scaling runs: cost per particle-substep against strand count, 1 and 2 threads. CSV files and,
+// with gnuplot, PNG charts go to --out. Every run goes through io::runScene, the offline runner's
+// library, so `wet_curly_hair_run --integrator NAME --substep S --threads N` reproduces a point.
+//
+//   wet_curly_hair_bench --out docs/bench            # the long form (tens of minutes)
+//   wet_curly_hair_bench --quick --out /tmp/bench    # a smoke run (seconds): no timing claims
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <string>
+#include <sys/stat.h>
+#include <vector>
+
+#include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/io/offline_run.h"
+#include "wet_curly_hair/io/scene.h"
+
+namespace {
+
+using wet_curly_hair::HairState;
+using wet_curly_hair::Vec3;
+namespace io = wet_curly_hair::io;
+
+struct BenchScene {
+  std::string name;
+  std::string description;
+  std::vector<std::pair<std::string, std::string>> overrides;  ///< dotted key, YAML value
+  std::string motion;                                          ///< runner motion spec
+};
+
+struct Setting {
+  std::string integrator;
+  double substep_s;
+};
+
+struct Options {
+  std::string out = "bench_out";
+  bool quick = false;
+  int repeats = 5;
+  int strands = 50;
+  double seconds = 1.0;
+  int threads = 1;
+  bool scaling = true;
+  bool work_precision = true;
+  std::vector<std::string> only_scenes;
+};
+
+/// The benchmark scenes: the built-in groom (soft curls) under different loads.
+std::vector<BenchScene> benchScenes() {
+  return {
+      {"drape", "dry curls settling under gravity on a still head",
+       {{"saturation.root", "0"}, {"saturation.tip", "0"}},
+       "still"},
+      {"spin", "dry, head spinning at 1 rev/s about its vertical axis",
+       {{"saturation.root", "0"}, {"saturation.tip", "0"}},
+       "spin:rate_hz=1"},
+      {"nod_shake", "dry, head shaking 0.35 rad at 2 Hz",
+       {{"saturation.root", "0"}, {"saturation.tip", "0"}},
+       "shake:freq_hz=2,amplitude_rad=0.35"},
+      {"wet_clump", "fully wet (curl, stiffness, cohesion), nodding 0.35 rad at 1 Hz",
+       {{"saturation.root", "1"}, {"saturation.tip", "1"}},
+       "nod:freq_hz=1,amplitude_rad=0.35"},
+      {"obstacle_slide", "half wet, head moving sideways at 0.3 m/s past a 5 cm sphere behind it",
+       {{"saturation.root", "0.5"},
+        {"saturation.tip", "0.5"},
+        {"obstacles", "[\"sphere:x=-0.18,y=0.15,z=-0.05,r=0.05\"]"}},
+       "linear:speed_m_s=0.3,axis_x=0,axis_y=1,axis_z=0"},
+  };
+}
+
+std::vector<Setting> benchSettings(bool quick) {
+  if (quick) return {{"explicit", 2e-4}, {"backward_euler", 1.0 / 240}, {"theta", 1.0 / 240}};
+  std::vector<Setting> s;
+  for (double h : {1e-4, 2e-4, 2.5e-4}) s.push_back({"explicit", h});
+  for (const char* m : {"backward_euler", "theta", "midpoint"})
+    for (double h : {5e-4, 1e-3, 2e-3, 1.0 / 240, 1.0 / 120, 1.0 / 60, 1.0 / 30})
+      s.push_back({m, h});
+  return s;
+}
+
+bool applyOverride(const std::string& key, const std::string& value, io::SceneConfig* scene,
+                   std::string* why) {
+  return io::parseSceneYaml(io::dottedToYaml(key, value), scene, why);
+}
+
+bool makeScene(const BenchScene& b, int strands, double seconds, io::SceneConfig* scene,
+               std::string* why) {
+  *scene = io::builtinScene();
+  for (const auto& [k, v] : b.overrides)
+    if (!applyOverride(k, v, scene, why)) return false;
+  if (!applyOverride("groom.strands", std::to_string(strands), scene, why) ||
+      !applyOverride("run.seconds", std::to_string(seconds), scene, why))
+    return false;
+  scene->motion = wet_curly_hair::HeadMotionConfig();
+  return wet_curly_hair::parseMotionSpec(b.motion, &scene->motion, why);
+}
+
+struct RunResult {
+  io::RunSummary summary;
+  std::vector<wet_curly_hair::Vec3List> frames;  ///< output positions per frame (when kept)
+};
+
+bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool keep_frames,
+             RunResult* result, std::string* why) {
+  scene.solver.integrator.method = setting.integrator;
+  scene.solver.integrator.substep_s = setting.substep_s;
+  scene.solver.integrator.threads = threads;
+  if (!scene.solver.validate("solver.", why)) return false;
+  io::RunOptions options;
+  options.measure = false;
+  options.stage_timing = false;  // timing each stage costs clock reads: not in the figures
+  result->frames.clear();
+  if (keep_frames)
+    options.on_frame = [&](int, const HairState& state) {
+      result->frames.push_back(state.wet_position);
+    };
+  return io::runScene(scene, options, &result->summary, why);
+}
+
+struct Error {
+  double rms = 0.0;
+  double max = 0.0;
+};
+
+Error frameError(const std::vector<wet_curly_hair::Vec3List>& a, const std::vector<wet_curly_hair::Vec3List>& b,
+                 double length_m) {
+  Error e;
+  double sum = 0.0;
+  size_t count = 0;
+  const size_t frames = std::min(a.size(), b.size());
+  for (size_t f = 1; f < frames; ++f) {
+    for (size_t i = 0; i < a[f].size() && i < b[f].size(); ++i) {
+      const double d = (a[f][i] - b[f][i]).norm();
+      sum += d * d;
+      e.max = std::max(e.max, std::isfinite(d) ? d : INFINITY);
+      ++count;
+    }
+  }
+  e.rms = count ? std::sqrt(sum / count) / length_m : 0.0;
+  e.max /= length_m;
+  return e;
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
+}
+
+/// Stable: every value finite, no strand repaired, and the largest strain before limiting within
+/// twice the strain limit (the explicit stretch spring's blow-up shows there first).
+bool stable(const io::RunSummary& s, double strain_limit) {
+  return s.finite && s.repairs == 0 && s.max_strain_before_limit <= 2.0 * strain_limit;
+}
+
+std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof(b), "%.6g", v);
+  return b;
+}
+
+bool writeFile(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  return static_cast<bool>(out);
+}
+
+bool haveGnuplot() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
+
+/// Work-precision chart: one line per integrator (all scenes' points, one panel per scene).
+void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& scenes) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 1500,900 font 'sans,10'\n"
+     << "set output '" << dir << "/work_precision.png'\n"
+     << "set datafile separator ','\n"
+     << "set logscale xy\nset grid\nset key bottom left font 'sans,8'\n"
+     << "set multiplot layout 2,3 title 'Speed against error (RMS particle error / strand length "
+        "vs wall s per simulated s; hollow: unstable)'\n";
+  for (const std::string& s : scenes) {
+    gp << "set title '" << s << "'\nset xlabel 'wall s per simulated s'\n"
+       << "set ylabel 'RMS error / strand length'\n"
+       << "set arrow from graph 0, first 0.01 to graph 1, first 0.01 nohead dt 2 lc 'gray'\n"
+       << "plot ";
+    const char* methods[] = {"explicit", "backward_euler", "theta", "midpoint"};
+    const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd"};
+    for (int m = 0; m < 4; ++m) {
+      gp << (m ? ", " : "") << "'" << dir << "/work_precision.csv' using "
+         << "(strcol(1) eq '" << s << "' && strcol(2) eq '" << methods[m]
+         << "' && $9 == 1 ? $4 : NaN):5 with linespoints pt 7 lc rgb '" << colours[m]
+         << "' title '" << methods[m] << "', '" << dir << "/work_precision.csv' using "
+         << "(strcol(1) eq '" << s << "' && strcol(2) eq '" << methods[m]
+         << "' && $9 == 0 ? $4 : NaN):5 with points pt 6 lc rgb '" << colours[m] << "' notitle";
+    }
+    gp << "\nunset arrow\n";
+  }
+  gp << "unset multiplot\n";
+  const std::string script = dir + "/work_precision.gp";
+  writeFile(script, gp.str());
+  if (std::system(("gnuplot " + script).c_str()) != 0)
+    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+}
+
+void plotScaling(const std::string& dir) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 900,600 font 'sans,10'\n"
+     << "set output '" << dir << "/scaling.png'\n"
+     << "set datafile separator ','\n"
+     << "set logscale x\nset grid\nset key top left\n"
+     << "set yrange [0:*]\n"
+     << "set title 'Cost per particle-substep against strand count (32 particles per strand)'\n"
+     << "set xlabel 'strands'\nset ylabel 'ns per particle-substep (wall)'\n"
+     << "plot ";
+  const char* combos[][2] = {{"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},
+                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"}};
+  bool first = true;
+  for (const auto& c : combos) {
+    gp << (first ? "" : ", ") << "'" << dir << "/scaling.csv' using (strcol(1) eq '" << c[0]
+       << "' && $3 == " << c[1] << " ? $2 : NaN):7 with linespoints title '" << c[0] << ", "
+       << c[1] << " thread" << (c[1][0] == '1' ? "" : "s") << "'";
+    first = false;
+  }
+  gp << "\n";
+  const std::string script = dir + "/scaling.gp";
+  writeFile(script, gp.str());
+  if (std::system(("gnuplot " + script).c_str()) != 0)
+    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+}
+
+const char* kUsage =
+    "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
+    "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
+    "                            [--no-work-precision]\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "wet_curly_hair_bench: %s needs a value\n%s", a.c_str(), kUsage);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--out") opt.out = value();
+    else if (a == "--quick") opt.quick = true;
+    else if (a == "--repeats") opt.repeats = std::atoi(value().c_str());
+    else if (a == "--strands") opt.strands = std::atoi(value().c_str());
+    else if (a == "--seconds") opt.seconds = std::atof(value().c_str());
+    else if (a == "--threads") opt.threads = std::atoi(value().c_str());
+    else if (a == "--scene") opt.only_scenes.push_back(value());
+    else if (a == "--no-scaling") opt.scaling = false;
+    else if (a == "--no-work-precision") opt.work_precision = false;
+    else {
+      std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
+      return 2;
+    }
+  }
+  if (opt.quick) {
+    opt.repeats = 1;
+    opt.strands = 6;
+    opt.seconds = 0.2;
+  }
+  if (opt.repeats < 1 || opt.strands < 1 || !(opt.seconds > 0.0) || opt.threads < 1) {
+    std::fprintf(stderr, "wet_curly_hair_bench: --repeats, --strands, --seconds and --threads "
+                         "must be positive\n");
+    return 2;
+  }
+  mkdir(opt.out.c_str(), 0755);
+  std::string why;
+  bool all_ok = true;
+
+  std::vector<std::string> scene_names;
+  if (opt.work_precision) {
+    const std::vector<Setting> settings = benchSettings(opt.quick);
+    double smallest = settings.front().substep_s;
+    for (const Setting& s : settings) smallest = std::min(smallest, s.substep_s);
+    const Setting reference{"explicit", smallest / 16.0};
+    const Setting check{"explicit", smallest / 32.0};
+    std::ostringstream csv;
+    csv << "scene,integrator,substep_s,wall_s_per_sim_s,rms_error,max_error,"
+           "max_strain_before_limit,repairs,stable,realtime_factor,runs\n";
+    std::ostringstream refcsv;
+    refcsv << "scene,reference_substep_s,check_substep_s,rms_difference,max_difference,"
+              "reference_wall_s\n";
+    for (const BenchScene& b : benchScenes()) {
+      if (!opt.only_scenes.empty() &&
+          std::find(opt.only_scenes.begin(), opt.only_scenes.end(), b.name) ==
+              opt.only_scenes.end())
+        continue;
+      scene_names.push_back(b.name);
+      io::SceneConfig scene;
+      if (!makeScene(b, opt.strands, opt.seconds, &scene, &why)) {
+        std::fprintf(stderr, "wet_curly_hair_bench: scene %s: %s\n", b.name.c_str(), why.c_str());
+        return 2;
+      }
+      const double length = scene.groom.length_m;
+      RunResult ref, chk;
+      if (!runOnce(scene, reference, opt.threads, true, &ref, &why) ||
+          !runOnce(scene, check, opt.threads, true, &chk, &why)) {
+        std::fprintf(stderr, "wet_curly_hair_bench: reference of %s: %s\n", b.name.c_str(),
+                     why.c_str());
+        return 2;
+      }
+      const Error converged = frameError(ref.frames, chk.frames, length);
+      refcsv << b.name << "," << fmt(reference.substep_s) << "," << fmt(check.substep_s) << ","
+             << fmt(converged.rms) << "," << fmt(converged.max) << ","
+             << fmt(ref.summary.wall_s) << "\n";
+      std::printf("%-15s reference %.3g s vs %.3g s: RMS %.2e, max %.2e of strand length\n",
+                  b.name.c_str(), reference.substep_s, check.substep_s, converged.rms,
+                  converged.max);
+      for (const Setting& setting : settings) {
+        std::vector<double> walls;
+        RunResult run;
+        Error err;
+        for (int r = 0; r < opt.repeats; ++r) {
+          if (!runOnce(scene, setting, opt.threads, r == 0, &run, &why)) {
+            std::fprintf(stderr, "wet_curly_hair_bench: %s %s: %s\n", b.name.c_str(),
+                         setting.integrator.c_str(), why.c_str());
+            return 2;
+          }
+          if (r == 0) err = frameError(run.frames, ref.frames, length);
+          walls.push_back(run.summary.wall_s / run.summary.sim_s);
+        }
+        const double cost = median(walls);
+        const bool ok = stable(run.summary, scene.solver.stretch.strain_limit);
+        csv << b.name << "," << setting.integrator << "," << fmt(setting.substep_s) << ","
+            << fmt(cost) << "," << fmt(err.rms) << "," << fmt(err.max) << ","
+            << fmt(run.summary.max_strain_before_limit) << "," << run.summary.repairs << ","
+            << (ok ? 1 : 0) << "," << fmt(cost > 0 ? 1.0 / cost : 0.0) << "," << opt.repeats
+            << "\n";
+        std::printf("%-15s %-15s %-9.3g cost %8.4f s/s  RMS %.2e  max %.2e  %s\n", b.name.c_str(),
+                    setting.integrator.c_str(), setting.substep_s, cost, err.rms, err.max,
+                    ok ? "stable" : "UNSTABLE");
+        std::fflush(stdout);
+      }
+    }
+    all_ok = writeFile(opt.out + "/work_precision.csv", csv.str()) &&
+             writeFile(opt.out + "/reference.csv", refcsv.str()) && all_ok;
+    if (haveGnuplot()) plotWorkPrecision(opt.out, scene_names);
+  }
+
+  if (opt.scaling) {
+    // Cost per particle-substep of the full wet model with an obstacle in reach, against the
+    // strand count, 1 and 2 threads. Fewer simulated frames for the big counts: the figure is
+    // per particle-substep.
+    std::vector<int> counts = opt.quick ? std::vector<int>{10, 40}
+                                        : std::vector<int>{100, 300, 1000, 3000, 10000};
+    const std::vector<Setting> settings =
+        opt.quick ? std::vector<Setting>{{"explicit", 2e-4}, {"theta", 1.0 / 240}}
+                  : std::vector<Setting>{{"explicit", 2e-4},
+                                         {"backward_euler", 1.0 / 240},
+                                         {"theta", 1.0 / 240}};
+    std::ostringstream csv;
+    csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,ns_per_particle_substep,"
+           "realtime_factor,runs\n";
+    BenchScene target = benchScenes()[4];  // obstacle_slide: wet, cohesion, adhesion, obstacle
+    for (const Setting& setting : settings) {
+      for (int count : counts) {
+        for (int threads : {1, 2}) {
+          const double work = double(count) * 32.0 / setting.substep_s;  // particle-substeps/s
+          const double seconds =
+              opt.quick ? 0.1 : std::clamp(std::round(30.0 * 2e8 / work) / 30.0, 2.0 / 30, 1.0);
+          io::SceneConfig scene;
+          if (!makeScene(target, count, seconds, &scene, &why)) {
+            std::fprintf(stderr, "wet_curly_hair_bench: %s\n", why.c_str());
+            return 2;
+          }
+          const int repeats = opt.quick ? 1 : std::max(3, opt.repeats / 2 + 1);
+          std::vector<double> walls;
+          RunResult run;
+          for (int r = 0; r < repeats; ++r) {
+            if (!runOnce(scene, setting, threads, false, &run, &why)) {
+              std::fprintf(stderr, "wet_curly_hair_bench: scaling: %s\n", why.c_str());
+              return 2;
+            }
+            walls.push_back(run.summary.wall_s / run.summary.sim_s);
+          }
+          const double cost = median(walls);
+          const double substeps = 1.0 / run.summary.substep_s;
+          const double ns = 1e9 * cost / (run.summary.particles * substeps);
+          csv << setting.integrator << "," << count << "," << threads << ","
+              << fmt(run.summary.substep_s) << "," << run.summary.particles << "," << fmt(cost)
+              << "," << fmt(ns) << "," << fmt(1.0 / cost) << "," << repeats << "\n";
+          std::printf("scaling %-15s %6d strands %d thread(s): %7.1f ns/particle-substep, "
+                      "real-time factor %.3f\n",
+                      setting.integrator.c_str(), count, threads, ns, 1.0 / cost);
+          std::fflush(stdout);
+        }
+      }
+    }
+    all_ok = writeFile(opt.out + "/scaling.csv", csv.str()) && all_ok;
+    if (haveGnuplot()) plotScaling(opt.out);
+  }
+  if (!all_ok) {
+    std::fprintf(stderr, "wet_curly_hair_bench: cannot write into %s\n", opt.out.c_str());
+    return 2;
+  }
+  std::printf("wrote %s\n", opt.out.c_str());
+  return 0;
+}
