@@ -109,7 +109,16 @@ bool CollisionConfig::validate(const std::string& p, std::string* why) const {
 }
 
 bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
-  if (!finiteInRange(p + "substep_s", substep_s, 1e-7, 0.1, why)) return false;
+  if (!oneOf(p + "method", method, {"explicit", "backward_euler", "midpoint", "theta"}, why) ||
+      !finiteInRange(p + "substep_s", substep_s, 1e-7, 0.1, why) ||
+      !finiteInRange(p + "theta", theta, 0.5, 1.0, why))
+    return false;
+  if (threads < 1 || threads > kMaxSolverThreads) {
+    if (why)
+      *why = p + "threads: " + std::to_string(threads) + " is outside [1, " +
+             std::to_string(kMaxSolverThreads) + "]";
+    return false;
+  }
   if (damping_passes < 1 || damping_passes > 64) {
     if (why) *why = p + "damping_passes: " + std::to_string(damping_passes) + " is outside [1, 64]";
     return false;

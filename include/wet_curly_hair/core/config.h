@@ -52,9 +52,19 @@ struct CollisionConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Time integration: semi-implicit Euler with fixed substeps and separate damping passes.
+/// Time integration with fixed substeps. "explicit": semi-implicit Euler with separate damping
+/// passes (Iben §2.2). The implicit methods solve, per strand, one block-tridiagonal linear system
+/// per substep for the velocity that moves the particles (stretch, bend, core and curl springs and
+/// every damping term inside the solve, frames held at the start of the substep), a theta method:
+/// "backward_euler" (theta 1: stable, damps), "midpoint" (theta 1/2: second order, no numerical
+/// damping), "theta" (theta from `theta`).
 struct IntegratorConfig {
+  std::string method = "explicit";
   double substep_s = 2.0e-4;  ///< largest substep, s; a frame is split into equal substeps.
+  double theta = 0.6;         ///< for method "theta": 1/2 midpoint ... 1 backward Euler.
+  /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
+  /// couple only between steps, and every reduction is over integers or maxima in a fixed order.
+  int threads = 1;
   /// Explicit damping sub-iterations per substep (tau = dt / n). A minimum: the solver uses more
   /// when the substep needs them for the explicit damping to be stable, tau <= 0.9 m / (2 C) with
   /// C = c_s + c_b + c_c (method.md §10.1); see dampingPassCount().
@@ -160,6 +170,8 @@ struct SolverConfig {
 constexpr double kMinBendSmoothingEdges = 4.0;
 /// Smallest bend damping ratio c_b / (2 sqrt(k_b m)), with m the particle mass.
 constexpr double kMinBendDampingRatio = 0.5;
+/// Largest solver thread count (per-thread scratch is allocated for this many at most).
+constexpr int kMaxSolverThreads = 64;
 
 namespace config_check {
 /// Helpers used by the validators: each sets *why to "<name>: <reason>" and returns false.
