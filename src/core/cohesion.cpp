@@ -28,15 +28,39 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
   for (int64_t i = 0; i < n; ++i) grid->sorted[grid->cell_start[grid->cell_of[i]]++] = static_cast<uint32_t>(i);
   for (uint32_t c = table; c > 0; --c) grid->cell_start[c] = grid->cell_start[c - 1];
   grid->cell_start[0] = 0;
+  // Within each bucket, order the entries by cell key (then particle index): each cell becomes
+  // one contiguous run. Buckets hold a few entries: insertion sort, deterministic.
+  for (int64_t k = 0; k < n; ++k) {
+    const Vec3& x = positions[grid->sorted[k]];
+    grid->sorted_key[k] = detail::cellKey(detail::cellCoord(x.x(), cell_m),
+                                          detail::cellCoord(x.y(), cell_m),
+                                          detail::cellCoord(x.z(), cell_m));
+  }
+  for (uint32_t c = 0; c < table; ++c) {
+    const uint32_t lo = grid->cell_start[c], hi = grid->cell_start[c + 1];
+    for (uint32_t a = lo + 1; a < hi; ++a) {
+      const uint64_t key = grid->sorted_key[a];
+      const uint32_t idx = grid->sorted[a];
+      uint32_t b = a;
+      while (b > lo && (grid->sorted_key[b - 1] > key ||
+                        (grid->sorted_key[b - 1] == key && grid->sorted[b - 1] > idx))) {
+        grid->sorted_key[b] = grid->sorted_key[b - 1];
+        grid->sorted[b] = grid->sorted[b - 1];
+        --b;
+      }
+      grid->sorted_key[b] = key;
+      grid->sorted[b] = idx;
+    }
+  }
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int64_t k = 0; k < n; ++k) {
     const uint32_t i = grid->sorted[k];
     const Vec3& x = positions[i];
-    grid->sorted_key[k] = detail::cellKey(detail::cellCoord(x.x(), cell_m),
-                                          detail::cellCoord(x.y(), cell_m),
-                                          detail::cellCoord(x.z(), cell_m));
     grid->sorted_strand[k] = grid->strand_of[i];
-    grid->sorted_position[k] = x;
+    grid->sorted_strand_value[k] = grid->strand_of[i];
+    grid->sorted_x[k] = x.x();
+    grid->sorted_y[k] = x.y();
+    grid->sorted_z[k] = x.z();
   }
 }
 
@@ -48,27 +72,42 @@ bool anyWet(const HairState& state) {
   return false;
 }
 
-/// SPH density of every particle near a wet one: all neighbours within h, other strands and own
-/// strand alike (poly6 shape; the normalisation cancels in the Shepard weights).
+/// SPH density of every particle: all particles within h, own strand and self included (poly6),
+/// summed over the cells' contiguous runs in a loop that vectorises. Also fills the grid's
+/// sorted mass, volume and saturation.
 void computeDensity(const HairModel& model, double h, HairState* state, int threads = 1) {
   const Vec3List& p = state->position;
+  NeighborGrid& grid = state->grid;
   const double h2 = h * h;
   // Normalised poly6 (method.md §7.1) so that V = m / rho is a volume (the kim baseline's normals
   // need it; in the Shepard weights of eq. 10 the constant cancels).
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
-  const double self = poly6Shape(0.0, h2);
+  const int64_t n = model.particleCount();
+  for (int64_t k = 0; k < n; ++k) grid.sorted_mass[k] = model.mass_kg[grid.sorted[k]];
+  const double* __restrict sx = grid.sorted_x.data();
+  const double* __restrict sy = grid.sorted_y.data();
+  const double* __restrict sz = grid.sorted_z.data();
+  const double* __restrict sm = grid.sorted_mass.data();
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
-  for (int i = 0; i < model.particleCount(); ++i) {
-    // Own strand: the neighbours along the strand within h.
-    double rho = model.mass_kg[i] * self;
-    const int s = static_cast<int>(state->grid.strand_of[i]);
-    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
-    for (int j = begin; j < end; ++j)
-      if (j != i) rho += model.mass_kg[j] * poly6Shape((p[j] - p[i]).squaredNorm(), h2);
-    forEachOtherStrandNeighbor(state->grid, p, s, p[i], h, [&](uint32_t j, double r2) {
-      rho += model.mass_kg[j] * poly6Shape(r2, h2);
+  for (int64_t i = 0; i < n; ++i) {
+    const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
+    double rho = 0.0;
+    forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
+      double part = 0.0;
+#pragma GCC ivdep
+      for (uint32_t k = lo; k < hi; ++k) {
+        const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
+        const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
+        part += sm[k] * (q * q * q);
+      }
+      rho += part;
     });
     state->density[i] = norm * rho;
+  }
+  for (int64_t k = 0; k < n; ++k) {
+    const uint32_t j = grid.sorted[k];
+    grid.sorted_volume[k] = model.mass_kg[j] / state->density[j];
+    grid.sorted_saturation[k] = state->saturation[j];
   }
 }
 
@@ -85,18 +124,40 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
   buildNeighborGrid(p, h, &state->grid, threads);
   computeDensity(model, h, state, threads);
   int clumped = 0;
+  const NeighborGrid& grid = state->grid;
+  const double* __restrict sx = grid.sorted_x.data();
+  const double* __restrict sy = grid.sorted_y.data();
+  const double* __restrict sz = grid.sorted_z.data();
+  const double* __restrict sv = grid.sorted_volume.data();
+  const double* __restrict ss = grid.sorted_saturation.data();
+  const double* __restrict sstrand = grid.sorted_strand_value.data();
   // Each particle writes only its own p^w: the result is the same for any thread count.
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : clumped)
   for (int i = 0; i < model.particleCount(); ++i) {
     if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
-    double weight_sum = 0.0;
-    Vec3 pull = Vec3::Zero();
-    forEachOtherStrandNeighbor(state->grid, p, state->grid.strand_of[i], p[i], h,
-                               [&](uint32_t j, double r2) {
-                                 const double w = model.mass_kg[j] / state->density[j] * poly6Shape(r2, h2);
-                                 weight_sum += w;
-                                 pull += w * state->saturation[j] * (p[j] - p[i]);
-                               });
+    const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
+    const double own = grid.strand_of[i];
+    // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
+    double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
+    forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
+      double w_sum = 0.0, ax = 0.0, ay = 0.0, az = 0.0;
+#pragma GCC ivdep
+      for (uint32_t k = lo; k < hi; ++k) {
+        const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
+        const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
+        const double w = sstrand[k] != own ? sv[k] * (q * q * q) : 0.0;
+        const double ws = w * ss[k];
+        w_sum += w;
+        ax += ws * dx;
+        ay += ws * dy;
+        az += ws * dz;
+      }
+      weight_sum += w_sum;
+      px += ax;
+      py += ay;
+      pz += az;
+    });
+    const Vec3 pull(px, py, pz);
     // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
     // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
     // crosses the kernel support: measured as jitter under rotation (README).

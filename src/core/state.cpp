@@ -27,7 +27,9 @@ void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_off
   strand_of.assign(particles, 0);
   sorted_key.assign(particles, 0);
   sorted_strand.assign(particles, 0);
-  sorted_position.assign(particles, Vec3::Zero());
+  for (std::vector<double>* v : {&sorted_strand_value, &sorted_x, &sorted_y, &sorted_z,
+                                 &sorted_mass, &sorted_volume, &sorted_saturation})
+    v->assign(particles, 0.0);
   for (size_t s = 0; s + 1 < strand_offsets.size(); ++s)
     for (uint32_t i = strand_offsets[s]; i < strand_offsets[s + 1]; ++i) strand_of[i] = s;
 }

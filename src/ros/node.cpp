@@ -26,6 +26,10 @@ double wallSince(const std::chrono::steady_clock::time_point& t0) {
 
 using Clock = std::chrono::steady_clock;
 
+double steadySeconds() {
+  return std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
+}
+
 int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
 
 std::string fmt(double v) {
@@ -324,6 +328,7 @@ void WetCurlyHairNode::advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lo
   in.head_start = head_pose_;
   in.head_end = end;
   in.obstacles = obstacles_.empty() ? nullptr : &obstacles_;
+  in.clock = &steadySeconds;  // stage timing for ~status (the core reads no clock itself)
   const auto t0 = Clock::now();
   step(model_, scene_.solver, in, frame_s_, &state_, &last_stats_);
   tick_step_s_ += wallSince(t0);
@@ -417,6 +422,14 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->obstacle_contacts = last_stats_.obstacle_contacts;
   s->adhesion_active = last_stats_.adhesion_active;
   s->cohesion_particles = last_stats_.cohesion_particles;
+  s->stage_names.clear();
+  s->stage_times_s.clear();
+  s->stage_particles.clear();
+  for (int k = 0; k < kStageCount; ++k) {
+    s->stage_names.push_back(stageName(k));
+    s->stage_times_s.push_back(last_stats_.stage_cpu_s[k]);
+    s->stage_particles.push_back(last_stats_.stage_particles[k]);
+  }
   s->analytic_obstacles = static_cast<uint32_t>(obstacles_.analytic.size());
   s->obstacle_field_loaded = field_.loaded;
   s->obstacle_field_source = field_.source;

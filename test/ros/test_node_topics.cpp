@@ -55,6 +55,14 @@ TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
   EXPECT_EQ(s.tf_error, "");
   EXPECT_EQ(s.repaired_strands, 0u);
   EXPECT_EQ(s.header.frame_id, "world");
+  // Every solver stage is named, timed and counted; the integrate stage ran on every
+  // particle-substep of the frame.
+  ASSERT_EQ(s.stage_names.size(), 11u);
+  ASSERT_EQ(s.stage_times_s.size(), 11u);
+  ASSERT_EQ(s.stage_particles.size(), 11u);
+  EXPECT_EQ(s.stage_names[4], "integrate");
+  EXPECT_EQ(s.stage_particles[4], uint64_t(s.substeps) * uint64_t(s.particles));
+  EXPECT_GT(s.stage_times_s[4], 0.0);
   // Overhead of the node itself against the solver step, averaged over 2 s of statuses.
   double step = 0, conv = 0, pub = 0, tf = 0;
   int n = 0;

@@ -17,11 +17,13 @@ namespace wet_curly_hair {
 void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* grid,
                        int threads = 1);
 
-/// Calls fn(j, r2) for every particle j of ANOTHER strand within radius_m of x, in an order that
-/// depends only on the positions (never on threads). Any radius works: the cells within reach of
-/// x are visited once each (cells wholly beyond radius_m skipped), and within a hashed bucket only
-/// the entries of the visited cell are tested. `positions` are the grid's (unused: the grid holds
-/// a sorted copy for locality; kept for the call sites' clarity).
+/// Calls fn(begin, end) once for every grid cell within radius_m of x (cells wholly beyond it
+/// skipped) with the range of that cell's entries in the grid's sorted arrays, in an order that
+/// depends only on the positions (never on threads).
+template <typename Fn>
+void forEachCellRun(const NeighborGrid& grid, const Vec3& x, double radius_m, Fn fn);
+
+/// Calls fn(j, r2) for every particle j of ANOTHER strand within radius_m of x (any radius).
 template <typename Fn>
 void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positions,
                                 uint32_t strand, const Vec3& x, double radius_m, Fn fn);
@@ -63,8 +65,7 @@ inline uint64_t cellKey(int64_t ix, int64_t iy, int64_t iz) {
 }  // namespace detail
 
 template <typename Fn>
-void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& /*positions*/,
-                                uint32_t strand, const Vec3& x, double radius_m, Fn fn) {
+void forEachCellRun(const NeighborGrid& grid, const Vec3& x, double radius_m, Fn fn) {
   const uint32_t mask = static_cast<uint32_t>(grid.cell_start.size() - 2);
   const double cell = grid.cell_m;
   const int64_t cx = detail::cellCoord(x.x(), cell);
@@ -89,14 +90,31 @@ void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& /*posi
         if (gz * gz + gy * gy + gx * gx >= r2max) continue;
         const uint64_t key = detail::cellKey(cx + dx, cy + dy, cz + dz);
         const uint32_t b = detail::cellHash(cx + dx, cy + dy, cz + dz, mask);
-        for (uint32_t idx = grid.cell_start[b]; idx < grid.cell_start[b + 1]; ++idx) {
-          if (grid.sorted_key[idx] != key || grid.sorted_strand[idx] == strand) continue;
-          const double r2 = (grid.sorted_position[idx] - x).squaredNorm();
-          if (r2 < r2max) fn(grid.sorted[idx], r2);
-        }
+        // Within a bucket the entries are sorted by cell key: find this cell's run.
+        uint32_t lo = grid.cell_start[b];
+        const uint32_t end = grid.cell_start[b + 1];
+        while (lo < end && grid.sorted_key[lo] < key) ++lo;
+        uint32_t hi = lo;
+        while (hi < end && grid.sorted_key[hi] == key) ++hi;
+        if (hi > lo) fn(lo, hi);
       }
     }
   }
+}
+
+template <typename Fn>
+void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& /*positions*/,
+                                uint32_t strand, const Vec3& x, double radius_m, Fn fn) {
+  const double r2max = radius_m * radius_m;
+  forEachCellRun(grid, x, radius_m, [&](uint32_t lo, uint32_t hi) {
+    for (uint32_t k = lo; k < hi; ++k) {
+      if (grid.sorted_strand[k] == strand) continue;
+      const double dx = grid.sorted_x[k] - x.x(), dy = grid.sorted_y[k] - x.y(),
+                   dz = grid.sorted_z[k] - x.z();
+      const double r2 = dx * dx + dy * dy + dz * dz;
+      if (r2 < r2max) fn(grid.sorted[k], r2);
+    }
+  });
 }
 
 }  // namespace wet_curly_hair

@@ -46,10 +46,14 @@ struct NeighborGrid {
   std::vector<uint32_t> sorted;      ///< particle indices grouped by cell hash.
   std::vector<uint32_t> cell_of;     ///< per particle: its hashed cell.
   std::vector<uint32_t> strand_of;   ///< per particle: its strand.
-  // In sorted order, for locality: each entry's cell key, strand and position.
+  // In sorted order (by bucket, then cell key, then particle index), structure of arrays so the
+  // neighbour loops over one cell's contiguous run vectorise: cell key, strand, coordinates, and
+  // the particle's mass, volume m / rho and saturation (filled by the cohesion passes).
   std::vector<uint64_t> sorted_key;
   std::vector<uint32_t> sorted_strand;
-  Vec3List sorted_position;
+  std::vector<double> sorted_strand_value;  ///< the strand index as a double (vector compares)
+  std::vector<double> sorted_x, sorted_y, sorted_z;
+  std::vector<double> sorted_mass, sorted_volume, sorted_saturation;
   void resize(int particles, const std::vector<uint32_t>& strand_offsets);
 };
 
