@@ -93,19 +93,32 @@ class StageLaps {
   double last_ = 0.0;
 };
 
-/// d f / d e of f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b): k [P + (1 - L/|e|)
-/// (I - P)], the transverse term clamped at zero under compression so that the implicit system
-/// stays positive definite (the usual definiteness fix; the exact force is still applied).
-inline Mat3 axialSpringJacobian(const Vec3& e, double rest, double k, Mat3* projector) {
+/// The axial spring f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b) linearised:
+/// d f / d e = k [u u^T + (1 - L / |e|) (I - u u^T)], u = e / |e|, written as
+/// isotropic + axial * u u^T. The transverse term is clamped at zero under compression so that
+/// the implicit system stays positive definite (the usual definiteness fix; the exact force is
+/// still applied).
+struct AxialJacobian {
+  Vec3 u = Vec3::Zero();  ///< unit direction (zero when degenerate)
+  double isotropic = 0.0;
+  double axial = 0.0;     ///< added along u u^T
+};
+
+inline AxialJacobian axialSpringJacobian(const Vec3& e, double rest, double k) {
+  AxialJacobian j;
   const double len = e.norm();
-  if (len < kDirectionEpsilon) {
-    projector->setZero();
-    return Mat3::Zero();
-  }
-  const Vec3 u = e / len;
-  *projector = u * u.transpose();
-  const double transverse = std::max(0.0, 1.0 - rest / len);
-  return k * (transverse * (Mat3::Identity() - *projector) + *projector);
+  if (len < kDirectionEpsilon) return j;
+  j.u = e / len;
+  j.isotropic = k * std::max(0.0, 1.0 - rest / len);
+  j.axial = k - j.isotropic;
+  return j;
+}
+
+/// a I + b u u^T + c w w^T (symmetric).
+inline Mat3 isotropicPlusDyads(double a, double b, const Vec3& u, double c, const Vec3& w) {
+  Mat3 m = b * (u * u.transpose()) + c * (w * w.transpose());
+  m.diagonal().array() += a;
+  return m;
 }
 
 }  // namespace
@@ -294,19 +307,23 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     for (int i = 0; i < edges; ++i) {
       const Vec3 e = p[i + 1] - p[i];
       const Vec3 dv = v[i + 1] - v[i];
-      Mat3 axis_projector, core_projector;
-      Mat3 jacobian = axialSpringJacobian(e, rest[i], ks, &axis_projector);
-      jacobian += axialSpringJacobian(b[i], model.core_rest_m[begin + i], kc * local_core,
-                                      &core_projector);
-      jacobian.diagonal().array() += kb;
-      if (kw > 0.0) jacobian.diagonal().array() += kw * 0.5 * (sigma[i] + sigma[i + 1]);
-      const Mat3 transverse = Mat3::Identity() - axis_projector;
-      const Mat3 damping = cs * axis_projector + cb * transverse + (cc * local_core) * core_projector;
-      block[i] = th * (damping + th * jacobian);
-      // Explicit remainders: the co-rotation part of the bend damping (constant in u) and the
-      // non-local part of the core damping.
-      Vec3 fe = -cb * (transverse * omega.cross(e));
-      if (cc > 0.0) fe += coreDampingForce(b[i], nu[i], cc) - (cc * local_core) * (core_projector * dv);
+      // G = theta h (C + theta h J) = alpha I + beta u u^T + gamma w w^T, u along the edge, w
+      // along the core difference b_i: stretch (k_s, c_s along u), bend (k_b I, c_b across u),
+      // core (k_c and c_c along w, local part), curl spring (k_w sigma I).
+      const AxialJacobian stretch = axialSpringJacobian(e, rest[i], ks);
+      const AxialJacobian core =
+          axialSpringJacobian(b[i], model.core_rest_m[begin + i], kc * local_core);
+      const double curl = kw > 0.0 ? kw * 0.5 * (sigma[i] + sigma[i + 1]) : 0.0;
+      const double has_axis = stretch.u.squaredNorm() > 0.0 ? 1.0 : 0.0;
+      const double alpha = th * (cb + th * (stretch.isotropic + core.isotropic + kb + curl));
+      const double beta = th * (has_axis * (cs - cb) + th * stretch.axial);
+      const double gamma = th * (cc * local_core + th * core.axial);
+      block[i] = isotropicPlusDyads(alpha, beta, stretch.u, gamma, core.u);
+      // Explicit remainders: the co-rotation part of the bend damping (constant in u; omega x e is
+      // already across the edge) and the non-local part of the core damping.
+      Vec3 fe = -cb * omega.cross(e);
+      if (cc > 0.0)
+        fe += coreDampingForce(b[i], nu[i], cc) - (cc * local_core * core.u.dot(dv)) * core.u;
       f[i] += fe;
       f[i + 1] -= fe;
     }
@@ -378,13 +395,16 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   if (config.collision.head_enabled) {
     const double delta = config.collision.offset_m;
     const double mu = config.collision.friction;
-    const Quat& r1 = pose1.rotation;
+    // Rotation matrices once per strand-substep instead of a quaternion product per particle.
+    const Mat3 r1 = pose1.rotation.toRotationMatrix();
+    const Mat3 r1_inverse = r1.transpose();
+    const Mat3 r0 = pose0.rotation.toRotationMatrix();
     for (int i = 1; i < n; ++i) {
-      const Vec3 x_head = pose1.applyInverse(p[i]);
+      const Vec3 x_head = r1_inverse * (p[i] - pose1.translation);
       Vec3 n_head;
       const double dist = model.head.distance(x_head, &n_head);
       if (dist >= delta) continue;
-      const Vec3 v_head = (p[i] - pose0.apply(x_head)) / h;
+      const Vec3 v_head = (p[i] - (r0 * x_head + pose0.translation)) / h;
       collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
       ++stats->head_contacts;
     }
