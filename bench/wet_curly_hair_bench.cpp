@@ -55,6 +55,7 @@ struct Options {
   int threads = 1;
   bool scaling = true;
   bool work_precision = true;
+  bool gating = true;
   std::vector<std::string> only_scenes;
 };
 
@@ -242,7 +243,7 @@ void plotScaling(const std::string& dir) {
 const char* kUsage =
     "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
     "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
-    "                            [--no-work-precision]\n";
+    "                            [--no-work-precision] [--no-gating]\n";
 
 }  // namespace
 
@@ -266,6 +267,7 @@ int main(int argc, char** argv) {
     else if (a == "--scene") opt.only_scenes.push_back(value());
     else if (a == "--no-scaling") opt.scaling = false;
     else if (a == "--no-work-precision") opt.work_precision = false;
+    else if (a == "--no-gating") opt.gating = false;
     else {
       std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
       return 2;
@@ -406,6 +408,64 @@ int main(int argc, char** argv) {
     }
     all_ok = writeFile(opt.out + "/scaling.csv", csv.str()) && all_ok;
     if (haveGnuplot()) plotScaling(opt.out);
+  }
+  if (opt.gating) {
+    // "Model only what the scene needs": the same nodding scene dry and fully wet, and with an
+    // obstacle out of the hair's reach, per integrator; ratios of medians measured in one run.
+    std::ostringstream csv;
+    csv << "integrator,variant,wall_s_per_sim_s,ratio_to_wet,ratio_to_no_obstacle,runs\n";
+    const BenchScene base{"gating", "nodding, built-in groom", {}, "nod:freq_hz=1,amplitude_rad=0.35"};
+    struct Variant {
+      const char* name;
+      const char* saturation;
+      bool far_obstacle;
+    };
+    const Variant variants[] = {{"wet", "1", false},
+                                {"dry", "0", false},
+                                {"wet_far_obstacle", "1", true},
+                                {"dry_far_obstacle", "0", true}};
+    const std::vector<Setting> settings = opt.quick
+                                              ? std::vector<Setting>{{"theta", 1.0 / 240}}
+                                              : std::vector<Setting>{{"explicit", 2e-4},
+                                                                     {"theta", 1.0 / 240}};
+    const int strands = opt.quick ? 6 : 100;
+    const double seconds = opt.quick ? 0.1 : 1.0;
+    for (const Setting& setting : settings) {
+      std::map<std::string, double> cost;
+      for (const Variant& v : variants) {
+        BenchScene b = base;
+        b.overrides = {{"saturation.root", v.saturation}, {"saturation.tip", v.saturation}};
+        if (v.far_obstacle) b.overrides.push_back({"obstacles", "[\"sphere:x=5,y=0,z=0,r=0.5\"]"});
+        io::SceneConfig scene;
+        if (!makeScene(b, strands, seconds, &scene, &why)) {
+          std::fprintf(stderr, "wet_curly_hair_bench: gating: %s\n", why.c_str());
+          return 2;
+        }
+        std::vector<double> walls;
+        RunResult run;
+        for (int r = 0; r < opt.repeats; ++r) {
+          if (!runOnce(scene, setting, opt.threads, false, &run, &why)) {
+            std::fprintf(stderr, "wet_curly_hair_bench: gating: %s\n", why.c_str());
+            return 2;
+          }
+          walls.push_back(run.summary.wall_s / run.summary.sim_s);
+        }
+        cost[v.name] = median(walls);
+      }
+      for (const Variant& v : variants) {
+        const std::string name = v.name;
+        const bool wet = name.rfind("wet", 0) == 0;
+        const std::string wet_twin = wet ? name : "wet" + name.substr(3);
+        const std::string no_obstacle = v.far_obstacle ? (wet ? "wet" : "dry") : name;
+        csv << setting.integrator << "," << name << "," << fmt(cost[name]) << ","
+            << fmt(cost[name] / cost[wet_twin]) << "," << fmt(cost[name] / cost[no_obstacle])
+            << "," << opt.repeats << "\n";
+        std::printf("gating %-15s %-17s %8.4f s/s  vs wet %.3f  vs no obstacle %.3f\n",
+                    setting.integrator.c_str(), name.c_str(), cost[name],
+                    cost[name] / cost[wet_twin], cost[name] / cost[no_obstacle]);
+      }
+    }
+    all_ok = writeFile(opt.out + "/gating.csv", csv.str()) && all_ok;
   }
   if (!all_ok) {
     std::fprintf(stderr, "wet_curly_hair_bench: cannot write into %s\n", opt.out.c_str());

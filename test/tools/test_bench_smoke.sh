@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Smoke run of the speed-against-error benchmark (bench/wet_curly_hair_bench.cpp) so it cannot
+# rot: a handful of settings on tiny scenes. No timing assertions: the machines are shared.
+set -u
+build=$1
+bench=$(find "$build" -name wet_curly_hair_bench -type f -perm -u+x | head -1)
+run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+pass=0 fail=0
+check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((fail + 1)); fi; }
+
+"$bench" --quick --out "$out/b" > "$out/stdout" 2> "$out/stderr"
+check "runs and exits 0 (stderr: $(head -c 300 "$out/stderr"))" "[ $? -eq 0 ]"
+check "writes work_precision.csv, reference.csv, scaling.csv and gating.csv" \
+  "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ]"
+# Every quick setting of every scene: finite cost and error, stable, and the reference converged
+# far below the errors it measures.
+check "work-precision rows complete, stable, errors finite and positive" "/usr/bin/python3 - <<PY
+import csv, math, sys
+rows = list(csv.DictReader(open('$out/b/work_precision.csv')))
+ok = len(rows) == 5 * 3
+for r in rows:
+    ok = ok and r['stable'] == '1' and float(r['wall_s_per_sim_s']) > 0
+    ok = ok and 0 < float(r['rms_error']) <= float(r['max_error']) < 1 and math.isfinite(float(r['max_error']))
+ref = {r['scene']: float(r['rms_difference']) for r in csv.DictReader(open('$out/b/reference.csv'))}
+ok = ok and len(ref) == 5
+for r in rows:
+    ok = ok and ref[r['scene']] < 0.1 * float(r['rms_error'])
+sys.exit(0 if ok else 1)
+PY"
+check "scaling rows for 1 and 2 threads" \
+  "[ \$(grep -c ',1,' $out/b/scaling.csv) -ge 2 ] && [ \$(grep -c ',2,' $out/b/scaling.csv) -ge 2 ]"
+if command -v gnuplot > /dev/null; then
+  check "draws both charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ]"
+fi
+# A point of the chart reproduces by hand with the runner's flags.
+"$run" --seconds 0.2 --strands 6 --integrator theta --substep 0.0041666667 --threads 2 \
+  --json "$out/p.json" > /dev/null 2>&1
+check "runner takes --integrator --substep --threads" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/p.json')); sys.exit(0 if d['integrator']=='theta' and d['threads']==2 and abs(d['substep_s']-1/240)<1e-9 and d['stages']['integrate']['particles']>0 else 1)\""
+"$run" --integrator rk4 > /dev/null 2> "$out/err"
+check "unknown integrator refused by name" "grep -q 'solver.integrator.method' $out/err"
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
