@@ -1,7 +1,12 @@
 #include "wet_curly_hair/io/offline_run.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
 #include <sys/stat.h>
 
 #include "wet_curly_hair/core/diagnostics.h"
@@ -51,6 +56,28 @@ std::string RunSummary::toJson() const {
       .add("cohesion_particles", static_cast<unsigned long long>(cohesion_particles))
       .add("sdf_build_s", sdf_build_s)
       .add("max_obstacle_penetration_m", max_obstacle_penetration_m)
+      .add("max_penetration_after_first_step_m", max_penetration_after_first_step_m)
+      .add("max_head_penetration_after_first_step_m", max_head_penetration_after_first_step_m)
+      .add("max_obstacle_penetration_after_first_step_m", max_obstacle_penetration_after_first_step_m)
+      .add("rigid_kinetic_energy_max_j", rigid_kinetic_energy_max_j)
+      .add("rigid_potential_rise_max_j", rigid_potential_rise_max_j)
+      .add("head_peak_reach_speed_m_s", head_peak_reach_speed_m_s)
+      .add("hair_mass_kg", hair_mass_kg)
+      .add("max_strain_start", max_strain_start)
+      .add("max_strain_end", max_strain_end)
+      .add("mean_strain_start", mean_strain_start)
+      .add("mean_strain_end", mean_strain_end)
+      .add("max_strand_extension_start", max_strand_extension_start)
+      .add("max_strand_extension_end", max_strand_extension_end)
+      .add("mean_strand_extension_start", mean_strand_extension_start)
+      .add("mean_strand_extension_end", mean_strand_extension_end)
+      .add("saturation_changes", saturation_changes)
+      .add("rss_start_kb", static_cast<long long>(rss_start_kb))
+      .add("rss_end_kb", static_cast<long long>(rss_end_kb))
+      .add("rss_peak_kb", static_cast<long long>(rss_peak_kb))
+      .add("series_stride", series_stride)
+      .add("rtf_window_s", rtf_window_s)
+      .add("realtime_factor_windows", realtime_factor_windows)
       .add("integrator", integrator)
       .add("threads", threads)
       .add("time_s", time_s)
@@ -70,6 +97,23 @@ std::string RunSummary::toJson() const {
 
 namespace {
 
+/// A "VmRSS:"-style line of /proc/self/status, kB (0 when unreadable, e.g. not Linux).
+long procStatusKb(const char* key) {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  long kb = 0;
+  const size_t n = std::strlen(key);
+  while (std::fgets(line, sizeof(line), f)) {
+    if (std::strncmp(line, key, n) == 0) {
+      kb = std::strtol(line + n, nullptr, 10);
+      break;
+    }
+  }
+  std::fclose(f);
+  return kb;
+}
+
 double steadySeconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -87,8 +131,36 @@ bool writeFrame(const std::string& dir, int frame, const HairModel& model, const
 
 bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
               std::string* why) {
+  const long rss_start_kb = procStatusKb("VmRSS:");
   HairModel model;
   if (!buildSceneModel(scene, &model, why)) return false;
+  if (options.series_stride < 1) {
+    if (why) *why = "--series-stride: must be at least 1";
+    return false;
+  }
+  if (!(options.rtf_window_s > 0.0)) {
+    if (why) *why = "--rtf-window: must be positive";
+    return false;
+  }
+  std::vector<RunOptions::SaturationEvent> events = options.saturation_events;
+  for (const RunOptions::SaturationEvent& e : events) {
+    SaturationCommand c;
+    c.root_value = e.root;
+    c.tip_value = e.tip;
+    if (!std::isfinite(e.time_s) || e.time_s < 0.0) {
+      if (why) *why = "--saturation-at: time must be finite and >= 0";
+      return false;
+    }
+    std::string inner;
+    if (!validateSaturationCommand(c, model, &inner)) {
+      if (why) *why = "--saturation-at: " + inner;
+      return false;
+    }
+  }
+  std::stable_sort(events.begin(), events.end(),
+                   [](const RunOptions::SaturationEvent& a, const RunOptions::SaturationEvent& b) {
+                     return a.time_s < b.time_s;
+                   });
   if (!options.hair_frames_dir.empty()) {
     mkdir(options.hair_frames_dir.c_str(), 0755);
     struct stat st;
@@ -102,6 +174,9 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     }
   }
   RunSummary s;
+  s.rss_start_kb = rss_start_kb;
+  s.series_stride = options.series_stride;
+  s.rtf_window_s = options.rtf_window_s;
   s.integrator = scene.solver.integrator.method;
   s.threads = scene.solver.integrator.threads;
   s.stage_particles.assign(kStageCount, 0);
@@ -163,17 +238,57 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   std::vector<double> contact_time(model.strandCount(), 0.0);
   NeighborGrid metric_grid;
   metric_grid.resize(model.particleCount(), model.strand_offsets);
+  // What the motion can put in: the groom carried rigidly by the head (RunSummary).
+  {
+    auto rigidPotential = [&](const Pose& pose) {
+      double u = 0.0;
+      for (int st = 0; st < model.strandCount(); ++st)
+        for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+          u -= model.mass_kg[i] * scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
+      return u;
+    };
+    for (int st = 0; st < model.strandCount(); ++st)
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+        s.hair_mass_kg += model.mass_kg[i];
+    const double u0 = rigidPotential(headPose(motion, 0.0));
+    for (long f = 0; f < frames; ++f) {
+      const Pose a = headPose(motion, f * frame), b = headPose(motion, (f + 1) * frame);
+      double ke = 0.0;
+      for (int st = 0; st < model.strandCount(); ++st)
+        for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+          ke += 0.5 * model.mass_kg[i] *
+                ((b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame)
+                    .squaredNorm();
+      s.rigid_kinetic_energy_max_j = std::max(s.rigid_kinetic_energy_max_j, ke);
+      // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
+      const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
+      const double w = std::abs(turn.angle()) / frame;
+      const double v_origin = (b.translation - a.translation).norm() / frame;
+      for (int st = 0; st < model.strandCount(); ++st) {
+        const double r = (a.apply(model.rest_position_head[model.strandBegin(st)]) - a.translation).norm();
+        s.head_peak_reach_speed_m_s = std::max(s.head_peak_reach_speed_m_s,
+                                               v_origin + w * (r + model.strand_length_m[st]));
+      }
+      s.rigid_potential_rise_max_j = std::max(s.rigid_potential_rise_max_j, rigidPotential(b) - u0);
+    }
+  }
 
+  long recorded_frames = 0;
   auto record = [&](long f, double t, const Pose& pose) {
-    const EnergyParts e = energy(model, scene.solver, pose, &state);
-    s.time_s.push_back(t);
-    s.energy.push_back(e.total());
-    s.kinetic_energy.push_back(e.kinetic);
-    s.max_speed_m_s.push_back(maxSpeed(model, state));
+    if (f % options.series_stride == 0 || f == frames) {
+      const EnergyParts e = energy(model, scene.solver, pose, &state);
+      s.time_s.push_back(t);
+      s.energy.push_back(e.total());
+      s.kinetic_energy.push_back(e.kinetic);
+      s.max_speed_m_s.push_back(maxSpeed(model, state));
+    }
+    ++recorded_frames;
     const StrainStats strain = edgeStrain(model, state);
     s.max_strain = std::max(s.max_strain, strain.max);
     s.mean_strain += strain.mean;
-    s.max_penetration_m = std::max(s.max_penetration_m, maxHeadPenetration(model, state, pose));
+    const double head_pen = maxHeadPenetration(model, state, pose);
+    s.max_penetration_m = std::max(s.max_penetration_m, head_pen);
+    double obstacle_pen = 0.0, extension = -std::numeric_limits<double>::infinity(), ext_sum = 0.0;
     for (int st = 0; st < model.strandCount(); ++st) {
       const int b = model.strandBegin(st), n = model.strandSize(st);
       double arc = 0.0;
@@ -184,12 +299,31 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
           Vec3 normal;
           const double dist = obstacles.distance(state.position[i], &normal);
           touching = touching || dist <= scene.solver.adhesion.radius_m;
-          s.max_obstacle_penetration_m = std::max(s.max_obstacle_penetration_m, -dist);
+          obstacle_pen = std::max(obstacle_pen, -dist);
         }
       }
-      s.max_strand_extension = std::max(s.max_strand_extension, arc / model.strand_length_m[st] - 1.0);
+      extension = std::max(extension, arc / model.strand_length_m[st] - 1.0);
+      ext_sum += arc / model.strand_length_m[st] - 1.0;
       if (touching && f > 0) contact_time[st] += frame;
     }
+    s.max_obstacle_penetration_m = std::max(s.max_obstacle_penetration_m, obstacle_pen);
+    s.max_strand_extension = std::max(s.max_strand_extension, extension);
+    if (f >= 1) {
+      s.max_head_penetration_after_first_step_m =
+          std::max(s.max_head_penetration_after_first_step_m, head_pen);
+      s.max_obstacle_penetration_after_first_step_m =
+          std::max(s.max_obstacle_penetration_after_first_step_m, obstacle_pen);
+    }
+    if (f == 0) {
+      s.max_strain_start = strain.max;
+      s.mean_strain_start = strain.mean;
+      s.max_strand_extension_start = extension;
+      s.mean_strand_extension_start = ext_sum / model.strandCount();
+    }
+    s.max_strain_end = strain.max;
+    s.mean_strain_end = strain.mean;
+    s.max_strand_extension_end = extension;
+    s.mean_strand_extension_end = ext_sum / model.strandCount();
     for (int i = 0; i < model.particleCount(); ++i) {
       const Vec3 x = pose.applyInverse(state.wet_position[i]);
       if (f >= 2) {
@@ -210,17 +344,33 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     if (!writeFrame(options.hair_frames_dir, 0, model, state, why)) return false;
     ++s.hair_frames_written;
   }
-  double wall = 0.0;
+  double wall = 0.0, window_wall = 0.0, window_sim = 0.0;
+  size_t next_event = 0;
   for (long f = 0; f < frames; ++f) {
     StepInputs in;
     in.head_start = headPose(motion, f * frame);
     in.head_end = headPose(motion, (f + 1) * frame);
+    for (; next_event < events.size() && events[next_event].time_s <= f * frame + 1e-9; ++next_event) {
+      SaturationCommand c;
+      c.root_value = events[next_event].root;
+      c.tip_value = events[next_event].tip;
+      applySaturation(model, c, in.head_start, &state);
+      ++s.saturation_changes;
+    }
     in.obstacles = obstacles.empty() ? nullptr : &obstacles;
     in.clock = options.stage_timing ? &steadySeconds : nullptr;
     StepStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     step(model, scene.solver, in, frame, &state, &stats);
-    wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double step_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    wall += step_wall;
+    window_wall += step_wall;
+    window_sim += frame;
+    if ((f + 1) * frame >= (s.realtime_factor_windows.size() + 1) * options.rtf_window_s - 1e-9 ||
+        f + 1 == frames) {
+      s.realtime_factor_windows.push_back(window_wall > 0.0 ? window_sim / window_wall : 0.0);
+      window_wall = window_sim = 0.0;
+    }
     for (int k = 0; k < kStageCount; ++k) {
       s.stage_particles[k] += stats.stage_particles[k];
       s.stage_cpu_s[k] += stats.stage_cpu_s[k];
@@ -242,6 +392,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   }
   // max_penetration_m covers the head and the obstacles alike.
   s.max_penetration_m = std::max(s.max_penetration_m, s.max_obstacle_penetration_m);
+  s.max_penetration_after_first_step_m = std::max(s.max_head_penetration_after_first_step_m,
+                                                  s.max_obstacle_penetration_after_first_step_m);
   s.jitter_m = jitter_count ? std::sqrt(jitter_sum / jitter_count) : 0.0;
   s.clump_distance_m = clumpDistance(model, state.wet_position, state.saturation,
                                      scene.run.clump_search_m, &metric_grid);
@@ -259,12 +411,14 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.steps = state.step_count;
   s.sim_s = frames * frame;
   s.wall_s = wall;
-  if (!s.time_s.empty()) s.mean_strain /= static_cast<double>(s.time_s.size());
+  if (recorded_frames > 0) s.mean_strain /= static_cast<double>(recorded_frames);
   s.repairs = state.warnings.total();
   s.nonfinite_values = state.warnings.nonfinite_values;
   s.finite = state.warnings.nonfinite_repairs == 0;
   for (const Vec3& p : state.position) s.finite = s.finite && p.allFinite();
   s.max_speed_end_m_s = s.max_speed_m_s.empty() ? maxSpeed(model, state) : s.max_speed_m_s.back();
+  s.rss_end_kb = procStatusKb("VmRSS:");
+  s.rss_peak_kb = procStatusKb("VmHWM:");
   *out = std::move(s);
   return true;
 }

@@ -21,6 +21,7 @@ const char* kUsage =
     "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
     "                          [--sdf-resolution M] [--integrator NAME] [--substep S]\n"
     "                          [--threads N] [--no-stage-timing]\n"
+    "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window S]\n"
     "integrators: explicit, backward_euler, midpoint, theta (--set solver.integrator.theta=T)\n"
     "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, shake:freq_hz=F,amplitude_rad=A,\n"
     "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, axis_x/y/z)\n";
@@ -155,6 +156,27 @@ int main(int argc, char** argv) {
     } else if (a == "--threads") {
       ok = next(&v) && parseNumber(a, v, &x, &why);
       overrides.emplace_back("solver.integrator.threads", v);
+    } else if (a == "--saturation-at") {
+      // A root-to-tip ramp set on every particle before the first frame starting at or after T.
+      ok = next(&v);
+      const size_t c1 = ok ? v.find(',') : std::string::npos;
+      const size_t c2 = c1 == std::string::npos ? c1 : v.find(',', c1 + 1);
+      io::RunOptions::SaturationEvent e;
+      if (ok && c2 == std::string::npos) {
+        why = "--saturation-at: '" + v + "' is not T,ROOT,TIP";
+        ok = false;
+      } else if (ok) {
+        ok = parseNumber("--saturation-at T", v.substr(0, c1), &e.time_s, &why) &&
+             parseNumber("--saturation-at ROOT", v.substr(c1 + 1, c2 - c1 - 1), &e.root, &why) &&
+             parseNumber("--saturation-at TIP", v.substr(c2 + 1), &e.tip, &why);
+        if (ok) options.saturation_events.push_back(e);
+      }
+    } else if (a == "--series-stride") {
+      ok = next(&v) && parseNumber(a, v, &x, &why);
+      options.series_stride = static_cast<int>(x);
+    } else if (a == "--rtf-window") {
+      ok = next(&v) && parseNumber(a, v, &x, &why);
+      options.rtf_window_s = x;
     } else if (a == "--no-stage-timing") {
       options.stage_timing = false;
     } else if (a == "--print-scene") {

@@ -24,6 +24,20 @@ struct RunOptions {
   /// Skip the per-frame measurements (energy, strain, tangles, jitter...): only the step runs.
   bool measure = true;
   /// Frames that are written hold the output positions (p^w under "ours" cohesion).
+  /// Scripted saturation changes: each sets a root-to-tip ramp on every particle of every strand
+  /// (applySaturation) before the first frame that starts at or after time_s (runner
+  /// `--saturation-at T,ROOT,TIP`, repeatable; applied in time order).
+  struct SaturationEvent {
+    double time_s = 0.0;
+    double root = 0.0;
+    double tip = 0.0;
+  };
+  std::vector<SaturationEvent> saturation_events;
+  /// The per-frame series (time_s, energy, kinetic_energy, max_speed_m_s) keep every Nth frame
+  /// (frame 0 and the last frame always); the maxima are still taken at every frame.
+  int series_stride = 1;
+  /// Real-time factor per window of this much simulated time (realtime_factor_windows), s.
+  double rtf_window_s = 60.0;
 };
 
 struct RunSummary {
@@ -65,6 +79,37 @@ struct RunSummary {
   uint64_t cohesion_particles = 0;  ///< summed over steps.
   double sdf_build_s = 0.0;         ///< OctoMap -> signed distance field build time, s.
   double max_obstacle_penetration_m = 0.0;  ///< deepest penetration into an obstacle, any frame.
+  /// The same maxima over the frames after the first solver step (frame >= 1): a groom that
+  /// starts inside the head or an obstacle is pushed out during the first step.
+  double max_penetration_after_first_step_m = 0.0;
+  double max_head_penetration_after_first_step_m = 0.0;
+  double max_obstacle_penetration_after_first_step_m = 0.0;
+  /// What the scripted motion can put into the hair: the groom carried rigidly by the head.
+  /// Kinetic energy of the non-root particles moving with the head's frame-to-frame rigid
+  /// motion ((pose(t+frame) - pose(t)) x / frame; a teleport counts as a one-frame move), the
+  /// largest over the frames, J; and the largest rise of their gravitational energy above its
+  /// value at t = 0, J.
+  double rigid_kinetic_energy_max_j = 0.0;
+  double rigid_potential_rise_max_j = 0.0;
+  /// Largest speed a point of a strand can have when the hair is carried rigidly in any shape:
+  /// |v_head origin| + |omega| (|root - origin| + strand length), over the frames, m/s.
+  double head_peak_reach_speed_m_s = 0.0;
+  double hair_mass_kg = 0.0;  ///< non-root particles.
+  /// Strand length drift: edge strain and strand extension at the first and the last frame.
+  double max_strain_start = 0.0, max_strain_end = 0.0;
+  double mean_strain_start = 0.0, mean_strain_end = 0.0;
+  /// Arc length / rest length - 1, signed: the largest over the strands and their mean.
+  double max_strand_extension_start = 0.0, max_strand_extension_end = 0.0;
+  double mean_strand_extension_start = 0.0, mean_strand_extension_end = 0.0;
+  int saturation_changes = 0;  ///< RunOptions::saturation_events applied.
+  /// Memory (/proc/self/status, kB): resident set before the model is built and at the end,
+  /// and the peak (VmHWM) at the end.
+  long rss_start_kb = 0, rss_end_kb = 0, rss_peak_kb = 0;
+  int series_stride = 1;
+  double rtf_window_s = 60.0;
+  /// Simulated / wall time of step() per window of rtf_window_s simulated seconds (the last,
+  /// partial window included when it holds at least one frame).
+  std::vector<double> realtime_factor_windows;
   std::string integrator;                   ///< solver.integrator.method
   int threads = 1;                          ///< solver.integrator.threads
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU

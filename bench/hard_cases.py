@@ -1,0 +1,387 @@
+#!/usr/bin/env python3
+"""Stability on hard cases (issue 7): runs every scene of config/hard/ under every integrator and
+substep through the offline runner and judges each run.
+
+    bench/hard_cases.py [--build DIR] [--short] [--out DIR] [--jobs N] [--readme FILE]
+                        [--make-inputs] [--scenes a,b] [--integrators a,b] [--steps 0.001,...]
+
+Criteria (each run; a run passes when it meets all five):
+  finite   every value stayed finite: JSON `finite`, `nonfinite_values` = 0, every energy finite,
+           and the runner exited 0.
+  strain   edge strain after limiting, `max_strain`, within the scene's strain limit + 1 %
+           (relative: <= 1.01 x solver.stretch.strain_limit). `max_strain_before_limit` is reported.
+  contact  penetration after the first solver step within the collision offset of the surface:
+           `max_head_penetration_after_first_step_m` <= solver.collision.offset_m (1 mm) and
+           `max_obstacle_penetration_after_first_step_m` <= solver.obstacle.offset_m (5 mm). The
+           collision keeps particles the offset outside the surface; the criterion lets a particle
+           lose at most that cushion. Frame 0 is not judged: some scenes start inside on purpose.
+  energy   E_peak <= E_0 + E_in + slack, with E the runner's total energy (kinetic + gravity +
+           stretch + bend + core) per frame, E_peak its largest value after frame 0, and
+             E_in  = 1/2 M v_peak^2 + rigid_potential_rise_max_j: what the motion can put in.
+                     M is the hair's mass; v_peak (`head_peak_reach_speed_m_s`) the fastest a
+                     point of a strand can move when carried rigidly by the head in any shape,
+                     |v_origin| + |omega| (|root - origin| + strand length), over the frames (the
+                     head's frame-to-frame motion: a teleport counts as a one-frame move); the
+                     second term is the largest rise of the groom's gravitational energy when it
+                     is carried rigidly by the head.
+             slack = 0.1 E_in + 0.01 M g0 L (10 % of the input, plus 1 % of the hair's weight
+                     energy over a strand length, g0 = 9.81 m/s^2, L = 0.25 m).
+           In scenes whose saturation changes during the run the wet curl force (eqs. 6-9), which is
+           not part of E, does work on the hair; there only the final energy is judged, after the
+           hair is dry again: E_final <= E_0 + E_in + slack. In the two scenes that start inside
+           the head or an obstacle (`# energy-reference: first-step` in the scene) the first
+           step's push-out adds energy by design; there E_0 is the energy after the first step.
+  repairs  no strand was repaired (JSON `repairs` = 0). A repair is the solver restoring a strand
+           that went non-finite or past 3x the strain limit; the tables give the count.
+
+A substep longer than the runner's 1/60 s frame needs a longer frame: at 1/30 s the runner is
+given `--set run.frame_s=1/30` (one substep per frame), else the frame is 1/60 s.
+
+Writes OUT/hard_cases.csv and OUT/hard_cases.md (OUT defaults to docs/). The explicit integrator
+at 1/60 and 1/30 s is expected to fail; the table says what happens.
+Python 3 standard library only.
+"""
+import argparse
+import concurrent.futures
+import csv
+import json
+import math
+import os
+import shlex
+import struct
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+PKG = os.path.dirname(HERE)
+HARD = os.path.join(PKG, "config", "hard")
+
+SCENES = ["spin_stop", "shake_4hz", "teleport_1m", "saturation_switch", "inside_head",
+          "inside_obstacle", "tight_curls", "straight", "particles_128", "zero_gravity",
+          "thin_sheet", "coincident_strands"]
+INTEGRATORS = ["explicit", "backward_euler", "midpoint", "theta"]
+STEPS = [("1/1000", 1.0 / 1000), ("1/240", 1.0 / 240), ("1/60", 1.0 / 60), ("1/30", 1.0 / 30)]
+SHORT_SCENES = ["spin_stop", "shake_4hz", "teleport_1m", "saturation_switch"]
+SHORT_INTEGRATORS = ["explicit", "backward_euler"]
+SHORT_STEPS = ["1/1000", "1/60"]
+FRAME_S = 1.0 / 60
+G0, L0 = 9.81, 0.25
+
+
+def find_tool(build, name):
+    for root, _dirs, files in os.walk(build):
+        if name in files:
+            path = os.path.join(root, name)
+            if os.access(path, os.X_OK):
+                return path
+    return None
+
+
+def expected_stable(integrator, step_s):
+    return integrator != "explicit" or step_s <= 1.0 / 1000 + 1e-12
+
+
+# ---- inputs: the thin OctoMap sheet and the groom with coincident strands -------------------
+
+def read_hair(path):
+    """Cem Yuksel's .hair: header, optional segments array, points. Returns a list of strands
+    (lists of (x, y, z))."""
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] != b"HAIR":
+        raise ValueError(path + ": not a .hair file")
+    strands, points, flags, default_segments = struct.unpack_from("<4I", data, 4)
+    offset = 128
+    if flags & 1:
+        segments = list(struct.unpack_from("<%dH" % strands, data, offset))
+        offset += 2 * strands
+    else:
+        segments = [default_segments] * strands
+    xyz = struct.unpack_from("<%df" % (3 * points), data, offset)
+    out, k = [], 0
+    for seg in segments:
+        out.append([tuple(xyz[3 * (k + i):3 * (k + i) + 3]) for i in range(seg + 1)])
+        k += seg + 1
+    return out
+
+
+def write_hair(path, strands, info=b"wet_curly_hair hard case"):
+    points = sum(len(s) for s in strands)
+    header = b"HAIR" + struct.pack("<4I", len(strands), points, 0x3, 0)
+    header += struct.pack("<ff3f", 1.0, 0.0, 0.5, 0.5, 0.5)
+    header += info[:88].ljust(88, b"\0")
+    assert len(header) == 128
+    body = struct.pack("<%dH" % len(strands), *[len(s) - 1 for s in strands])
+    flat = [c for s in strands for p in s for c in p]
+    body += struct.pack("<%df" % len(flat), *flat)
+    with open(path, "wb") as f:
+        f.write(header + body)
+
+
+def make_inputs(build, force):
+    run = find_tool(build, "wet_curly_hair_run")
+    octo = find_tool(build, "wet_curly_hair_make_octomap")
+    sheet = os.path.join(HARD, "thin_sheet.bt")
+    if force or not os.path.exists(sheet):
+        if not octo:
+            sys.exit("hard_cases: wet_curly_hair_make_octomap not found under " + build)
+        subprocess.check_call([octo, sheet, "0.005", "box:x=0.2225,y=0,z=0.1,hx=0.001,hy=0.25,hz=0.25"])
+    hair = os.path.join(HARD, "coincident.hair")
+    if force or not os.path.exists(hair):
+        tmp = os.path.join(HARD, ".groom_tmp")
+        empty = os.path.join(tmp, "empty.yaml")
+        os.makedirs(tmp, exist_ok=True)
+        with open(empty, "w") as f:
+            f.write("{}\n")
+        subprocess.check_call([run, "--scene", empty, "--strands", "12", "--seconds", "0",
+                               "--saturation", "0,0", "--hair-frames", tmp],
+                              stdout=subprocess.DEVNULL)
+        strands = read_hair(os.path.join(tmp, "frame_00000.hair"))
+        write_hair(hair, [s for s in strands for _ in range(2)],
+                   b"12 generated curly strands, each twice")
+        for name in os.listdir(tmp):
+            os.remove(os.path.join(tmp, name))
+        os.rmdir(tmp)
+
+
+# ---- one run ----------------------------------------------------------------------------------
+
+def scene_settings(run, scene_path):
+    """Strain limit and collision offsets from the runner's --print-scene of the scene."""
+    text = subprocess.check_output([run, "--scene", scene_path, "--print-scene"], cwd=PKG,
+                                   universal_newlines=True)
+    path, values = [], {}
+    for line in text.splitlines():
+        body = line.split("#", 1)[0].rstrip()
+        if not body.strip() or body.strip().startswith("-"):
+            continue
+        indent = (len(body) - len(body.lstrip())) // 2
+        key, _, value = body.strip().partition(":")
+        path = path[:indent] + [key]
+        if value.strip():
+            values[".".join(path)] = value.strip()
+    return {"strain_limit": float(values["solver.stretch.strain_limit"]),
+            "head_offset": float(values["solver.collision.offset_m"]),
+            "obstacle_offset": float(values["solver.obstacle.offset_m"])}
+
+
+def scene_directive(scene_path, name):
+    """The text after `# NAME:` in the scene's comments ("" when absent)."""
+    with open(scene_path) as f:
+        for line in f:
+            if line.startswith("# %s:" % name):
+                return line.split(":", 1)[1].strip()
+    return ""
+
+
+def runner_args(scene_path):
+    return shlex.split(scene_directive(scene_path, "runner-args"))
+
+
+def judge(d, rc, settings, saturation_changes, from_first_step):
+    row = {}
+    energy = d.get("energy") or []
+    finite = (rc == 0 and bool(d.get("finite")) and d.get("nonfinite_values", 1) == 0 and
+              all(math.isfinite(e) for e in energy) and len(energy) > 1)
+    e0 = energy[0] if energy else float("nan")
+    e_peak = max(energy[1:]) if len(energy) > 1 else float("nan")
+    e_final = energy[-1] if energy else float("nan")
+    mass = d.get("hair_mass_kg", 0.0)
+    e_in = 0.5 * mass * d.get("head_peak_reach_speed_m_s", 0.0) ** 2 + d.get("rigid_potential_rise_max_j", 0.0)
+    slack = 0.1 * e_in + 0.01 * mass * G0 * L0
+    if from_first_step and len(energy) > 1:
+        e0 = energy[1]
+    bound = e0 + e_in + slack
+    judged = e_final if saturation_changes else e_peak
+    strain_ok = d.get("max_strain", float("inf")) <= 1.01 * settings["strain_limit"]
+    head_pen = d.get("max_head_penetration_after_first_step_m", float("inf"))
+    obst_pen = d.get("max_obstacle_penetration_after_first_step_m", float("inf"))
+    contact_ok = head_pen <= settings["head_offset"] and obst_pen <= settings["obstacle_offset"]
+    energy_ok = math.isfinite(judged) and judged <= bound
+    repairs = d.get("repairs", -1)
+    failed = [name for name, ok in [("finite", finite), ("strain", strain_ok),
+                                    ("contact", contact_ok), ("energy", energy_ok),
+                                    ("repairs", repairs == 0)] if not ok]
+    row.update({
+        "finite": finite, "repairs": repairs,
+        "max_strain": d.get("max_strain"), "max_strain_before_limit": d.get("max_strain_before_limit"),
+        "strain_limit": settings["strain_limit"],
+        "head_penetration_after_first_step_m": head_pen,
+        "head_tolerance_m": settings["head_offset"],
+        "obstacle_penetration_after_first_step_m": obst_pen,
+        "obstacle_tolerance_m": settings["obstacle_offset"],
+        "max_penetration_m_any_frame": d.get("max_penetration_m"),
+        "energy_initial_j": e0, "energy_peak_j": e_peak, "energy_final_j": e_final,
+        "energy_input_j": e_in, "energy_bound_j": bound,
+        "energy_judged": ("final" if saturation_changes else "peak") + (
+            " vs first step" if from_first_step else ""),
+        "max_speed_m_s": max(d.get("max_speed_m_s") or [float("nan")]),
+        "wall_s": d.get("wall_s"), "realtime_factor": d.get("realtime_factor"),
+        "failed": " ".join(failed), "status": "stable" if not failed else "fails",
+    })
+    return row
+
+
+def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeout):
+    scene_path = os.path.join("config", "hard", scene + ".yaml")
+    extra = runner_args(os.path.join(PKG, scene_path))
+    frame = max(FRAME_S, step_s)
+    tag = "%s__%s__%s" % (scene, integrator, step_label.replace("/", "_"))
+    json_path = os.path.join(out_dir, "runs", tag + ".json")
+    cmd = [run, "--scene", scene_path, "--integrator", integrator, "--substep", repr(step_s),
+           "--json", json_path] + extra
+    if frame > FRAME_S:
+        cmd += ["--set", "run.frame_s=%r" % frame]
+    t0 = time.time()
+    try:
+        proc = subprocess.run(cmd, cwd=PKG, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                              universal_newlines=True, timeout=timeout)
+        rc, err = proc.returncode, proc.stderr.strip()
+    except subprocess.TimeoutExpired:
+        rc, err = -1, "timeout after %d s" % timeout
+    d = {}
+    if rc in (0, 1) and os.path.exists(json_path):
+        with open(json_path) as f:
+            d = json.load(f)
+    row = {"scene": scene, "integrator": integrator, "substep": step_label, "substep_s": step_s,
+           "frame_s": frame, "expected_stable": expected_stable(integrator, step_s),
+           "exit_code": rc, "command": "cd %s && %s" % (os.path.relpath(PKG), " ".join(
+               shlex.quote(c) for c in [os.path.basename(run)] + cmd[1:]
+               if c != "--json" and not c.endswith(".json")))}
+    from_first_step = scene_directive(os.path.join(PKG, scene_path), "energy-reference") == "first-step"
+    row.update(judge(d, rc, settings, "--saturation-at" in extra, from_first_step))
+    if rc not in (0, 1):
+        row["failed"] = ("runner exit %d: %s" % (rc, err.splitlines()[-1] if err else "")).strip()
+        row["status"] = "fails"
+    row["elapsed_s"] = round(time.time() - t0, 2)
+    return row
+
+
+# ---- tables ----------------------------------------------------------------------------------
+
+COLUMNS = ["scene", "integrator", "substep", "substep_s", "frame_s", "expected_stable", "status",
+           "failed", "exit_code", "finite", "repairs", "max_strain", "max_strain_before_limit",
+           "strain_limit", "head_penetration_after_first_step_m", "head_tolerance_m",
+           "obstacle_penetration_after_first_step_m", "obstacle_tolerance_m",
+           "max_penetration_m_any_frame", "energy_initial_j", "energy_peak_j", "energy_final_j",
+           "energy_input_j", "energy_bound_j", "energy_judged", "max_speed_m_s", "wall_s",
+           "realtime_factor", "elapsed_s", "command"]
+
+
+def cell(row):
+    if row["status"] == "stable":
+        text = "stable"
+    else:
+        text = "**fails** " + row["failed"]
+        if "repairs" in row["failed"].split():
+            text += " (%s)" % row["repairs"]
+    if not row["expected_stable"]:
+        text += " (exp.)" if row["status"] != "stable" else ""
+    return text
+
+
+def markdown(rows, scenes, integrators, steps, command):
+    by = {(r["scene"], r["integrator"], r["substep"]): r for r in rows}
+    lines = ["| scene | integrator | " + " | ".join(s for s in steps) + " |",
+             "|---|---|" + "---|" * len(steps)]
+    for sc in scenes:
+        for integ in integrators:
+            cells = [cell(by[(sc, integ, st)]) if (sc, integ, st) in by else "" for st in steps]
+            lines.append("| %s | %s | %s |" % (sc, integ, " | ".join(cells)))
+    expected = [r for r in rows if r["expected_stable"]]
+    bad = [r for r in expected if r["status"] != "stable"]
+    other = [r for r in rows if not r["expected_stable"]]
+    summary = ["%d runs: %d of the %d expected stable (implicit methods at every step, explicit "
+               "at 1/1000 s) pass every criterion; of the %d explicit runs at longer steps, %d "
+               "pass and %d fail." % (len(rows), len(expected) - len(bad), len(expected),
+                                      len(other), sum(r["status"] == "stable" for r in other),
+                                      sum(r["status"] != "stable" for r in other))]
+    if bad:
+        summary.append("Expected stable but failed: " + "; ".join(
+            "%s %s %s (%s)" % (r["scene"], r["integrator"], r["substep"], r["failed"]) for r in bad) + ".")
+    worst = max(rows, key=lambda r: r["max_strain_before_limit"] or 0.0)
+    summary.append("Largest strain before limiting: %.3g (%s, %s, %s); after limiting, at most %.4g." % (
+        worst["max_strain_before_limit"] or 0.0, worst["scene"], worst["integrator"], worst["substep"],
+        max((r["max_strain"] or 0.0) for r in rows)))
+    reps = [r for r in rows if isinstance(r["repairs"], int) and r["repairs"] > 0]
+    summary.append("Runs with repairs: %s." % (", ".join(
+        "%s %s %s: %d" % (r["scene"], r["integrator"], r["substep"], r["repairs"]) for r in reps)
+        if reps else "none"))
+    return "\n".join(
+        ["Cells: `stable` = passes all five criteria (finite, strain, contact, energy, repairs); "
+         "otherwise the criteria it fails (repairs with their count). `(exp.)` marks the explicit "
+         "integrator at 1/240 s and longer, expected to fail.", ""] + lines + [""] +
+        ["- " + s for s in summary] + ["", "Command: `%s`" % command, ""])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--build", default=os.path.join(PKG, "_build"), help="build folder holding the runner")
+    ap.add_argument("--short", action="store_true", help="the subset run as a ctest")
+    ap.add_argument("--out", default=os.path.join(PKG, "docs"), help="folder for the CSV and markdown")
+    ap.add_argument("--jobs", type=int, default=1, help="runs in parallel (default 1)")
+    ap.add_argument("--timeout", type=int, default=900, help="seconds per run")
+    ap.add_argument("--readme", help="also replace the table between the hard_cases markers of this file")
+    ap.add_argument("--make-inputs", action="store_true", help="remake config/hard/*.bt and .hair")
+    ap.add_argument("--scenes"), ap.add_argument("--integrators"), ap.add_argument("--steps")
+    args = ap.parse_args()
+    run = find_tool(args.build, "wet_curly_hair_run")
+    if not run:
+        sys.exit("hard_cases: wet_curly_hair_run not found under " + args.build)
+    make_inputs(args.build, args.make_inputs)
+    scenes = SHORT_SCENES if args.short else SCENES
+    integrators = SHORT_INTEGRATORS if args.short else INTEGRATORS
+    step_labels = SHORT_STEPS if args.short else [s for s, _ in STEPS]
+    if args.scenes:
+        scenes = args.scenes.split(",")
+    if args.integrators:
+        integrators = args.integrators.split(",")
+    if args.steps:
+        step_labels = args.steps.split(",")
+    steps = [(s, v) for s, v in STEPS if s in step_labels]
+    os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
+    settings = {sc: scene_settings(run, os.path.join("config", "hard", sc + ".yaml")) for sc in scenes}
+    jobs = [(sc, integ, lbl, val) for sc in scenes for integ in integrators for lbl, val in steps]
+    rows = []
+    t0 = time.time()
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = [pool.submit(run_one, run, args.out, sc, integ, lbl, val, settings[sc], args.timeout)
+                   for sc, integ, lbl, val in jobs]
+        for fut in concurrent.futures.as_completed(futures):
+            r = fut.result()
+            rows.append(r)
+            print("%-20s %-15s %-7s %-7s %s" % (r["scene"], r["integrator"], r["substep"], r["status"],
+                                               r["failed"]), flush=True)
+    order = {j[:3]: k for k, j in enumerate(jobs)}
+    rows.sort(key=lambda r: order[(r["scene"], r["integrator"], r["substep"])])
+    name = "hard_cases_short" if args.short else "hard_cases"
+    with open(os.path.join(args.out, name + ".csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
+        w.writeheader()
+        w.writerows(rows)
+    command = "bench/hard_cases.py --build _build" + (" --short" if args.short else "")
+    md = markdown(rows, scenes, integrators, [s for s, _ in steps], command)
+    with open(os.path.join(args.out, name + ".md"), "w") as f:
+        f.write("# Stability on hard cases\n\nWritten by `bench/hard_cases.py` (criteria in its "
+                "docstring and in README \"Stability on hard cases\"); raw figures in `%s.csv`. "
+                "Total wall time %.0f s.\n\n" % (name, time.time() - t0) + md)
+    if args.readme:
+        begin, end = "<!-- hard_cases:begin -->", "<!-- hard_cases:end -->"
+        with open(args.readme) as f:
+            text = f.read()
+        if begin in text and end in text:
+            head, rest = text.split(begin, 1)
+            text = head + begin + "\n" + md + end + rest.split(end, 1)[1]
+            with open(args.readme, "w") as f:
+                f.write(text)
+        else:
+            print("hard_cases: %s has no %s ... %s markers; not changed" % (args.readme, begin, end))
+    bad = [r for r in rows if r["expected_stable"] and r["status"] != "stable"]
+    print("%d runs in %.0f s; expected stable: %d passed, %d failed" % (
+        len(rows), time.time() - t0, sum(r["expected_stable"] for r in rows) - len(bad), len(bad)))
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
