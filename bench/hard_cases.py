@@ -34,7 +34,8 @@ Criteria (each run; a run passes when it meets all five):
   repairs  no strand was repaired (JSON `repairs` = 0). A repair is the solver restoring a strand
            that went non-finite or past 3x the strain limit; the tables give the count.
 
-A substep longer than the runner's 1/60 s frame needs a longer frame: at 1/30 s the runner is
+The runs start from the package folder (scene paths are relative to it); the `command` column of
+the CSV reproduces a run from there. A substep longer than the runner's 1/60 s frame needs a longer frame: at 1/30 s the runner is
 given `--set run.frame_s=1/30` (one substep per frame), else the frame is 1/60 s.
 
 Writes OUT/hard_cases.csv and OUT/hard_cases.md (OUT defaults to docs/). The explicit integrator
@@ -49,8 +50,10 @@ import math
 import os
 import shlex
 import struct
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -228,7 +231,7 @@ def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeo
     extra = runner_args(os.path.join(PKG, scene_path))
     frame = max(FRAME_S, step_s)
     tag = "%s__%s__%s" % (scene, integrator, step_label.replace("/", "_"))
-    json_path = os.path.join(out_dir, "runs", tag + ".json")
+    json_path = os.path.join(out_dir, tag + ".json")
     cmd = [run, "--scene", scene_path, "--integrator", integrator, "--substep", repr(step_s),
            "--json", json_path] + extra
     if frame > FRAME_S:
@@ -246,9 +249,9 @@ def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeo
             d = json.load(f)
     row = {"scene": scene, "integrator": integrator, "substep": step_label, "substep_s": step_s,
            "frame_s": frame, "expected_stable": expected_stable(integrator, step_s),
-           "exit_code": rc, "command": "cd %s && %s" % (os.path.relpath(PKG), " ".join(
+           "exit_code": rc, "command": " ".join(
                shlex.quote(c) for c in [os.path.basename(run)] + cmd[1:]
-               if c != "--json" and not c.endswith(".json")))}
+               if c != "--json" and not c.endswith(".json"))}
     from_first_step = scene_directive(os.path.join(PKG, scene_path), "energy-reference") == "first-step"
     row.update(judge(d, rc, settings, "--saturation-at" in extra, from_first_step))
     if rc not in (0, 1):
@@ -324,6 +327,7 @@ def main():
     ap.add_argument("--timeout", type=int, default=900, help="seconds per run")
     ap.add_argument("--readme", help="also replace the table between the hard_cases markers of this file")
     ap.add_argument("--make-inputs", action="store_true", help="remake config/hard/*.bt and .hair")
+    ap.add_argument("--work", help="keep each run's JSON here (default: a temporary folder, removed)")
     ap.add_argument("--scenes"), ap.add_argument("--integrators"), ap.add_argument("--steps")
     args = ap.parse_args()
     run = find_tool(args.build, "wet_curly_hair_run")
@@ -340,13 +344,15 @@ def main():
     if args.steps:
         step_labels = args.steps.split(",")
     steps = [(s, v) for s, v in STEPS if s in step_labels]
-    os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
+    os.makedirs(args.out, exist_ok=True)
+    work = args.work or tempfile.mkdtemp(prefix="hard_cases_")
+    os.makedirs(work, exist_ok=True)
     settings = {sc: scene_settings(run, os.path.join("config", "hard", sc + ".yaml")) for sc in scenes}
     jobs = [(sc, integ, lbl, val) for sc in scenes for integ in integrators for lbl, val in steps]
     rows = []
     t0 = time.time()
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = [pool.submit(run_one, run, args.out, sc, integ, lbl, val, settings[sc], args.timeout)
+        futures = [pool.submit(run_one, run, work, sc, integ, lbl, val, settings[sc], args.timeout)
                    for sc, integ, lbl, val in jobs]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
@@ -360,7 +366,7 @@ def main():
         w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-    command = "bench/hard_cases.py --build _build" + (" --short" if args.short else "")
+    command = "bench/hard_cases.py --build _build --jobs 2" + (" --short" if args.short else "")
     md = markdown(rows, scenes, integrators, [s for s, _ in steps], command)
     with open(os.path.join(args.out, name + ".md"), "w") as f:
         f.write("# Stability on hard cases\n\nWritten by `bench/hard_cases.py` (criteria in its "
@@ -377,6 +383,8 @@ def main():
                 f.write(text)
         else:
             print("hard_cases: %s has no %s ... %s markers; not changed" % (args.readme, begin, end))
+    if not args.work:
+        shutil.rmtree(work, ignore_errors=True)
     bad = [r for r in rows if r["expected_stable"] and r["status"] != "stable"]
     print("%d runs in %.0f s; expected stable: %d passed, %d failed" % (
         len(rows), time.time() - t0, sum(r["expected_stable"] for r in rows) - len(bad), len(bad)))

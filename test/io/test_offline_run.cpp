@@ -134,3 +134,63 @@ TEST(OfflineRun, BadObstacleMapIsRefused) {
   EXPECT_FALSE(runScene(scene, RunOptions(), &s, &why));
   EXPECT_NE(why.find("obstacle_map"), std::string::npos) << why;
 }
+
+TEST(OfflineRun, ScriptedSaturationChangesSeriesStrideAndHardCaseKeys) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 6;
+  scene.run.seconds = 1.0;
+  scene.saturation = SaturationInit();  // dry start
+  scene.motion.type = "spin";
+  scene.motion.rate_hz = 1.0;
+  scene.motion.stop_s = 0.5;
+  RunOptions options;
+  options.saturation_events = {{0.5, 0.0, 0.0}, {0.25, 1.0, 1.0}};  // applied in time order
+  options.series_stride = 10;
+  options.rtf_window_s = 0.25;
+  RunSummary s;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &s, &why)) << why;
+  EXPECT_EQ(s.saturation_changes, 2);
+  EXPECT_EQ(s.energy.size(), 7u);  // frames 0, 10, ..., 60
+  EXPECT_NEAR(s.time_s.back(), 1.0, 1e-12);
+  EXPECT_EQ(s.realtime_factor_windows.size(), 4u);
+  // Carried rigidly at 1 rev/s, a point at radius r moves at 2 pi r: the reach speed covers the
+  // strand at full extension from its root; the groom's own rigid energy is below that bound.
+  EXPECT_GT(s.head_peak_reach_speed_m_s, 2.0 * M_PI * scene.groom.length_m);
+  EXPECT_LT(s.head_peak_reach_speed_m_s, 2.0 * M_PI * (0.11 + 1.2 * scene.groom.length_m));
+  EXPECT_GT(s.rigid_kinetic_energy_max_j, 0.0);
+  EXPECT_LE(s.rigid_kinetic_energy_max_j,
+            0.5 * s.hair_mass_kg * s.head_peak_reach_speed_m_s * s.head_peak_reach_speed_m_s);
+  EXPECT_NEAR(s.rigid_potential_rise_max_j, 0.0, 1e-12);  // a spin about z lifts nothing
+  EXPECT_NEAR(s.hair_mass_kg, 6 * 31 * scene.groom.particle_mass_kg, 1e-12);
+  EXPECT_EQ(s.max_strain_start, 0.0);
+  EXPECT_LE(s.max_penetration_after_first_step_m, s.max_penetration_m);
+  EXPECT_GT(s.rss_end_kb, 0);
+  EXPECT_GE(s.rss_peak_kb, s.rss_end_kb);
+  const std::string json = s.toJson();
+  for (const char* key : {"\"max_penetration_after_first_step_m\"", "\"rigid_kinetic_energy_max_j\"",
+                          "\"head_peak_reach_speed_m_s\"", "\"saturation_changes\"", "\"rss_end_kb\"",
+                          "\"realtime_factor_windows\"", "\"mean_strain_end\"",
+                          "\"mean_strand_extension_end\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  // A saturation outside [0, 1] is refused with the option named.
+  options.saturation_events = {{0.1, 1.5, 0.0}};
+  EXPECT_FALSE(runScene(scene, options, &s, &why));
+  EXPECT_NE(why.find("--saturation-at"), std::string::npos) << why;
+}
+
+TEST(OfflineRun, StrandsStartingInsideAnObstacleArePushedOutInTheFirstStep) {
+  // A sphere over the crown where the standing curls are at t = 0 (config/hard/inside_obstacle).
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 12;
+  scene.run.seconds = 0.25;
+  scene.motion.type = "still";
+  AnalyticObstacle sphere;
+  std::string why;
+  ASSERT_TRUE(AnalyticObstacle::parse("sphere:x=-0.04,y=0,z=0.25,r=0.06", &sphere, &why)) << why;
+  scene.obstacles = {sphere};
+  RunSummary s;
+  ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
+  EXPECT_GT(s.max_obstacle_penetration_m, 0.01);  // frame 0: deep inside
+  EXPECT_LE(s.max_obstacle_penetration_after_first_step_m, scene.solver.obstacle.offset_m);
+}
