@@ -142,7 +142,9 @@ bool CohesionConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "tightness", tightness, 0.0, 1.0, why) &&
          finiteInRange(p + "radius_m", radius_m, 1e-4, 1.0, why) &&
          finiteInRange(p + "lin_stiffness_n_per_m", lin_stiffness_n_per_m, 0.0, 1e5, why) &&
-         finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why);
+         finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why) &&
+         oneOf(p + "evaluation", evaluation, {"exact", "grid"}, why) &&
+         finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why);
 }
 
 bool AdhesionConfig::validate(const std::string& p, std::string* why) const {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/sag_free.h"
 #include "wet_curly_hair/core/smoothing.h"
@@ -143,6 +144,7 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
   // (headPose(motion, 0) = motion.base, not a scene parameter), so gravity in the head frame is
   // the world gravity.
   if (config.sag_free) makeSagFree(config, config.gravity_m_s2, &m);
+  m.cohesion_grid_nodes = cohesionGridNodeBound(m, config);
   *model = std::move(m);
 }
 

@@ -34,6 +34,11 @@ void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_off
     for (uint32_t i = strand_offsets[s]; i < strand_offsets[s + 1]; ++i) strand_of[i] = s;
 }
 
+void CohesionNodeGrid::resize(size_t nodes, int particles) {
+  for (std::vector<double>* v : {&scalar, &wet_volume, &qx, &qy, &qz}) v->assign(nodes, 0.0);
+  volume.assign(nodes > 0 ? particles : 0, 0.0);
+}
+
 void resetState(const HairModel& model, const Pose& head_pose, const Twist& head_twist,
                 HairState* state) {
   for (int i = 0; i < model.particleCount(); ++i) {
@@ -63,6 +68,7 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.density.assign(n, 0.0);
   state.normal_scratch.assign(n, Vec3::Zero());
   state.grid.resize(n, model.strand_offsets);
+  state.cohesion_grid.resize(model.cohesion_grid_nodes, n);
   state.scratch.resize(kMaxSolverThreads);
   for (StrandScratch& scratch : state.scratch) scratch.resize(model.max_strand_size);
   resetState(model, head_pose, head_twist, &state);

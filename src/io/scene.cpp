@@ -142,6 +142,10 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "lin baseline: pair attraction, N/m", false);
   d("solver.cohesion.kim_surface_tension", &c.cohesion.kim_surface_tension,
     "kim baseline: Akinci cohesion coefficient", false);
+  str("solver.cohesion.evaluation", &c.cohesion.evaluation,
+      "exact or grid (lattice approximation, README \"Cohesion evaluation\")", true);
+  i("solver.cohesion.grid_cells_per_radius", &c.cohesion.grid_cells_per_radius,
+    "grid evaluation: lattice nodes per kernel radius", true);
   b("solver.adhesion.enabled", &c.adhesion.enabled, "adhesion of wet hair to obstacles", false);
   d("solver.adhesion.peak_acceleration_m_s2", &c.adhesion.peak_acceleration_m_s2,
     "peak adhesion acceleration at saturation 1, m/s^2", false);

@@ -104,6 +104,12 @@ struct CohesionConfig {
   /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j), SI), calibrated
   /// the same way.
   double kim_surface_tension = 0.3;
+  /// How eq. (10) is evaluated (mode "ours"): "exact" sums over every neighbour within h;
+  /// "grid" splats the particles onto a lattice of node spacing h / grid_cells_per_radius
+  /// (trilinear) and evaluates the kernel at the nodes, at a cost per particle that does not
+  /// grow with the number of neighbours (README "Cohesion evaluation": error and cost).
+  std::string evaluation = "exact";
+  int grid_cells_per_radius = 4;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

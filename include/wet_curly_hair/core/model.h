@@ -35,6 +35,9 @@ struct HairModel {
   Vec3List helix_axis;
   int max_strand_size = 0;                  ///< largest particle count of any strand.
   double min_mass_kg = 0.0;                 ///< smallest non-root particle mass.
+  /// Lattice nodes makeState allocates for the "grid" cohesion evaluation: enough for the hair's
+  /// largest possible extent (cohesionGridNodeBound); 0 when the evaluation is "exact".
+  size_t cohesion_grid_nodes = 0;
 
   int strandCount() const { return static_cast<int>(strand_offsets.size()) - 1; }
   int particleCount() const { return static_cast<int>(rest_position_head.size()); }

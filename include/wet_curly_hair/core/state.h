@@ -14,6 +14,9 @@ struct WarningStats {
   uint64_t nonfinite_repairs = 0;  ///< strands restored because a value went NaN/Inf.
   uint64_t strain_repairs = 0;     ///< strands restored because strain ran past the bound.
   uint64_t nonfinite_values = 0;   ///< non-finite scalars found before those repairs.
+  /// Steps whose "grid" cohesion evaluation fell back to "exact": the hair's bounding box needed
+  /// more lattice nodes than were preallocated (HairModel::cohesion_grid_nodes).
+  uint64_t cohesion_grid_fallbacks = 0;
   uint64_t total() const { return nonfinite_repairs + strain_repairs; }
 };
 
@@ -57,6 +60,17 @@ struct NeighborGrid {
   void resize(int particles, const std::vector<uint32_t>& strand_offsets);
 };
 
+/// Lattice of the approximate ("grid") cohesion evaluation (cohesion_grid.h), allocated once for
+/// HairModel::cohesion_grid_nodes nodes; each step uses the part that covers the hair's current
+/// bounding box. Node arrays in x-fastest order.
+struct CohesionNodeGrid {
+  std::vector<double> scalar;      ///< pass 1: splatted mass; pass 2: splatted volume V.
+  std::vector<double> wet_volume;  ///< pass 2: splatted V sigma.
+  std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - node).
+  std::vector<double> volume;      ///< per particle: V = m / rho from the lattice density.
+  void resize(size_t nodes, int particles);
+};
+
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
   Vec3List position;       ///< world frame, m.
@@ -72,6 +86,7 @@ struct HairState {
   std::vector<double> density;     ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
   Vec3List normal_scratch;         ///< per particle: Akinci surface normals (kim baseline).
   NeighborGrid grid;
+  CohesionNodeGrid cohesion_grid;
   double time_s = 0.0;             ///< simulated time of the current positions, s.
   uint64_t step_count = 0;
   uint64_t substep_count = 0;

@@ -1,0 +1,44 @@
+// Approximate evaluation of the stable cohesion of eq. (10) on a lattice
+// (solver.cohesion.evaluation = "grid", README "Cohesion evaluation").
+//
+// Every kernel value W(|p_i - p_j|) of the exact sums is replaced by its trilinear interpolant
+// over the lattice cell holding p_j: W~_ij = sum_n t_jn W(|p_i - x_n|), t_jn the trilinear
+// weights of p_j at the 8 nodes x_n of its cell. Sums over all particles then become sums over
+// the nodes within h of p_i of W times node values splatted once per step (particle-in-cell), so
+// the cost per particle depends on h / spacing, not on how many neighbours there are:
+//   pass 1: node mass -> rho_i = norm sum_n W(|p_i - x_n|) M_n, V_i = m_i / rho_i (all particles);
+//   pass 2: node V, V sigma, V sigma (p - x_n) -> for each wet particle the sums over ALL strands;
+// the own strand's share is computed with the same functional from its particles (their 8 nodes
+// each) and subtracted, so it cancels up to round-off; a particle whose other-strand weight is
+// at most 1e-9 of its own strand's counts as isolated (p^w = p, A13).
+// Splatting is serial in particle order and each particle's gather writes only its own p^w: the
+// result is bit-identical for any thread count.
+#pragma once
+
+#include <cstddef>
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/state.h"
+
+namespace wet_curly_hair {
+
+/// Largest lattice preallocated (nodes; 5 doubles each): beyond it the grid evaluation is not
+/// allocated and every step falls back to exact (counted in WarningStats).
+constexpr size_t kMaxCohesionGridNodes = size_t{1} << 23;
+
+/// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
+/// strand's (strain-limited) length of its root, and the roots within their rest bounding
+/// sphere, so every axis of the box spans at most 2 (root sphere radius + longest strand); plus
+/// the kernel's reach on both sides. 0 unless config.cohesion.evaluation is "grid", or when the
+/// bound exceeds kMaxCohesionGridNodes.
+size_t cohesionGridNodeBound(const HairModel& model, const SolverConfig& config);
+
+/// Eq. (10) by the lattice approximation into state->wet_position, which the caller has set to
+/// the positions (dry and isolated particles keep them). Returns the number of wet particles that
+/// found other-strand neighbours, or -1 (nothing written) when the hair's current bounding box
+/// needs more nodes than state->cohesion_grid holds or is not finite.
+int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& config,
+                               HairState* state, int threads = 1);
+
+}  // namespace wet_curly_hair
