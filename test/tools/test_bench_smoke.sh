@@ -12,8 +12,8 @@ check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((f
 
 "$bench" --quick --out "$out/b" > "$out/stdout" 2> "$out/stderr"
 check "runs and exits 0 (stderr: $(head -c 300 "$out/stderr"))" "[ $? -eq 0 ]"
-check "writes work_precision.csv, reference.csv, scaling.csv and gating.csv" \
-  "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ]"
+check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv" \
+  "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 3 ]"
 # Every quick setting of every scene: finite cost and error, stable, and the reference converged
 # far below the errors it measures.
 check "work-precision rows complete, stable, errors finite and positive" "/usr/bin/python3 - <<PY
