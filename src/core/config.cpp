@@ -111,7 +111,9 @@ bool CollisionConfig::validate(const std::string& p, std::string* why) const {
 bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
   if (!oneOf(p + "method", method, {"explicit", "backward_euler", "midpoint", "theta"}, why) ||
       !finiteInRange(p + "substep_s", substep_s, 1e-7, 0.1, why) ||
-      !finiteInRange(p + "theta", theta, 0.5, 1.0, why))
+      !finiteInRange(p + "theta", theta, 0.5, 1.0, why) ||
+      !finiteInRange(p + "teleport_speed_m_s", teleport_speed_m_s, 0.0, 1e6, why) ||
+      !finiteInRange(p + "teleport_angle_rad", teleport_angle_rad, 0.0, 10.0, why))
     return false;
   if (threads < 1 || threads > kMaxSolverThreads) {
     if (why)

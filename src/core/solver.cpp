@@ -535,6 +535,31 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   }
   const double h = dt_s / nsub;
   const int strands = model.strandCount();
+  // A head that jumps (faster than any head moves: a teleport, a tracking glitch) carries the
+  // hair rigidly with it first; the step then sees a still head. Velocities turn with the head.
+  StepInputs jumped = inputs;
+  {
+    const IntegratorConfig& ic = config.integrator;
+    const double travel = (inputs.head_end.translation - inputs.head_start.translation).norm();
+    const double turn =
+        Eigen::AngleAxisd(inputs.head_end.rotation * inputs.head_start.rotation.conjugate()).angle();
+    if ((ic.teleport_speed_m_s > 0.0 && travel > ic.teleport_speed_m_s * dt_s) ||
+        (ic.teleport_angle_rad > 0.0 && turn > ic.teleport_angle_rad)) {
+      const Pose jump = inputs.head_end * inputs.head_start.inverse();
+      for (int i = 0; i < model.particleCount(); ++i) {
+        state->position[i] = jump.apply(state->position[i]);
+        state->velocity[i] = jump.rotation * state->velocity[i];
+        state->last_good_position[i] = jump.apply(state->last_good_position[i]);
+        state->last_good_velocity[i] = jump.rotation * state->last_good_velocity[i];
+      }
+      for (int s = 0; s < strands; ++s)
+        state->curl_rotation[s] = jump.rotation.toRotationMatrix() * state->curl_rotation[s];
+      jumped.head_start = inputs.head_end;
+      local.head_jumps = 1;
+      ++state->warnings.head_jumps;
+    }
+  }
+  const StepInputs& in_ = jumped;
   const int threads =
       std::max(1, std::min(config.integrator.threads, static_cast<int>(state->scratch.size())));
   // Per-thread counters, summed in thread order afterwards (integers and maxima: the sums do not
@@ -545,19 +570,19 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     // The force-based baselines couple strands: substeps outside, strands inside, the
     // cross-strand forces evaluated at every substep.
     for (int k = 0; k < nsub; ++k) {
-      const double t0 = inputs.clock ? inputs.clock() : 0.0;
+      const double t0 = in_.clock ? in_.clock() : 0.0;
       computeCohesionForces(model, config.cohesion, state);
       local.stage_particles[kStageCohesionForces] += model.particleCount();
-      if (inputs.clock) local.stage_cpu_s[kStageCohesionForces] += inputs.clock() - t0;
+      if (in_.clock) local.stage_cpu_s[kStageCohesionForces] += in_.clock() - t0;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
       for (int s = 0; s < strands; ++s) {
         const int t = ompThreadIndex();
-        StrandFlags flags = strandFlags(model, config, inputs, s, *state);
+        StrandFlags flags = strandFlags(model, config, in_, s, *state);
         flags.external_force = true;
         StepStats& ts = per_thread[t];
         prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
         const double strain =
-            substepStrand(model, config, inputs, s, flags, double(k) / nsub, double(k + 1) / nsub,
+            substepStrand(model, config, in_, s, flags, double(k) / nsub, double(k + 1) / nsub,
                           h, state, &state->scratch[t], &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
@@ -569,13 +594,13 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     for (int s = 0; s < strands; ++s) {
       const int t = ompThreadIndex();
       StepStats& ts = per_thread[t];
-      const StrandFlags flags = strandFlags(model, config, inputs, s, *state);
+      const StrandFlags flags = strandFlags(model, config, in_, s, *state);
       ts.wet_strands += flags.wet;
       ts.strands_near_obstacles += flags.near_obstacle;
       prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
       for (int k = 0; k < nsub; ++k) {
         const double strain =
-            substepStrand(model, config, inputs, s, flags, double(k) / nsub, double(k + 1) / nsub,
+            substepStrand(model, config, in_, s, flags, double(k) / nsub, double(k + 1) / nsub,
                           h, state, &state->scratch[t], &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
@@ -583,7 +608,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   }
   for (int t = 0; t < threads; ++t) local.accumulate(per_thread[t]);
   // Detect, repair and count numerical trouble, strand by strand (style.md §11).
-  const double repair_start = inputs.clock ? inputs.clock() : 0.0;
+  const double repair_start = in_.clock ? in_.clock() : 0.0;
   for (int s = 0; s < strands; ++s) {
     uint64_t nonfinite = 0;
     const bool finite = strandFinite(model, s, *state, &nonfinite);
@@ -595,7 +620,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
       std::copy_n(&state->velocity[begin], n, &state->last_good_velocity[begin]);
       continue;
     }
-    repairStrand(model, inputs, s, state);
+    repairStrand(model, in_, s, state);
     ++local.repaired_strands;
     if (!finite) {
       ++state->warnings.nonfinite_repairs;
@@ -605,13 +630,13 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     }
   }
   local.stage_particles[kStageRepair] += model.particleCount();
-  const double cohesion_start = inputs.clock ? inputs.clock() : 0.0;
-  if (inputs.clock) local.stage_cpu_s[kStageRepair] += cohesion_start - repair_start;
+  const double cohesion_start = in_.clock ? in_.clock() : 0.0;
+  if (in_.clock) local.stage_cpu_s[kStageRepair] += cohesion_start - repair_start;
   // Stable cohesion (eq. 10): display positions after the step, never fed back (A14).
   local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state, threads);
   local.stage_particles[kStageCohesion] += local.cohesion_particles;
-  if (inputs.clock) {
-    const double now = inputs.clock();
+  if (in_.clock) {
+    const double now = in_.clock();
     local.stage_cpu_s[kStageCohesion] += now - cohesion_start;
     local.wall_s = now - wall_start;
   }

@@ -35,6 +35,7 @@ std::string RunSummary::toJson() const {
       .add("max_strain_before_limit", max_strain_before_limit)
       .add("max_penetration_m", max_penetration_m)
       .add("repairs", static_cast<unsigned long long>(repairs))
+      .add("head_jumps", static_cast<unsigned long long>(head_jumps))
       .add("nonfinite_values", static_cast<unsigned long long>(nonfinite_values))
       .add("finite", finite)
       .add("max_speed_end_m_s", max_speed_end_m_s)
@@ -413,6 +414,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.wall_s = wall;
   if (recorded_frames > 0) s.mean_strain /= static_cast<double>(recorded_frames);
   s.repairs = state.warnings.total();
+  s.head_jumps = state.warnings.head_jumps;
   s.nonfinite_values = state.warnings.nonfinite_values;
   s.finite = state.warnings.nonfinite_repairs == 0;
   for (const Vec3& p : state.position) s.finite = s.finite && p.allFinite();

@@ -121,6 +121,11 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.integrator.theta", &c.integrator.theta, "theta of method theta, [0.5, 1]", false);
   i("solver.integrator.threads", &c.integrator.threads, "solver threads (results identical)",
     false);
+  d("solver.integrator.teleport_speed_m_s", &c.integrator.teleport_speed_m_s,
+    "head faster than this within a step: a jump that carries the hair rigidly, m/s (0: off)",
+    false);
+  d("solver.integrator.teleport_angle_rad", &c.integrator.teleport_angle_rad,
+    "head turning more than this within a step: a jump, rad (0: off)", false);
   i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
   addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
   b("solver.sag_free", &c.sag_free,

@@ -65,6 +65,12 @@ struct IntegratorConfig {
   /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
   /// couple only between steps, and every reduction is over integers or maxima in a fixed order.
   int threads = 1;
+  /// A head that moves faster than this within a step (translation speed, m/s; or turns more than
+  /// teleport_angle_rad) has jumped, not moved: the hair is carried rigidly by the jump before
+  /// the step and keeps its velocities relative to the head (a tracking glitch or a teleport must
+  /// not fling the hair). 0 disables.
+  double teleport_speed_m_s = 20.0;
+  double teleport_angle_rad = 1.5;
   /// Explicit damping sub-iterations per substep (tau = dt / n). A minimum: the solver uses more
   /// when the substep needs them for the explicit damping to be stable, tau <= 0.9 m / (2 C) with
   /// C = c_s + c_b + c_c (method.md §10.1); see dampingPassCount().

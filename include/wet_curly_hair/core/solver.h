@@ -54,6 +54,7 @@ struct StepStats {
   uint64_t velocity_clamps = 0;          ///< velocity clamps in the damping pass.
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
   uint64_t repaired_strands = 0;         ///< strands restored to their last good state.
+  uint64_t head_jumps = 0;               ///< 1 when this step's head motion was taken as a jump.
   // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.
   uint64_t curl_particle_substeps = 0;     ///< curl exaggeration (wet strands only).
   uint64_t adhesion_particle_substeps = 0; ///< adhesion evaluated (wet, within obstacle reach).

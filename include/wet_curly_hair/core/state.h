@@ -14,6 +14,7 @@ struct WarningStats {
   uint64_t nonfinite_repairs = 0;  ///< strands restored because a value went NaN/Inf.
   uint64_t strain_repairs = 0;     ///< strands restored because strain ran past the bound.
   uint64_t nonfinite_values = 0;   ///< non-finite scalars found before those repairs.
+  uint64_t head_jumps = 0;         ///< steps whose head motion was taken as a jump (teleport).
   /// Steps whose "grid" cohesion evaluation fell back to "exact": the hair's bounding box needed
   /// more lattice nodes than were preallocated (HairModel::cohesion_grid_nodes).
   uint64_t cohesion_grid_fallbacks = 0;
