@@ -187,6 +187,7 @@ void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& s
   std::ostringstream gp;
   gp << "set terminal pngcairo size 1500,900 font 'sans,10'\n"
      << "set output '" << dir << "/work_precision.png'\n"
+     << "set termoption noenhanced\n"
      << "set datafile separator ','\n"
      << "set logscale xy\nset grid\nset key bottom left font 'sans,8'\n"
      << "set multiplot layout 2,3 title 'Speed against error (RMS particle error / strand length "
@@ -219,6 +220,7 @@ void plotScaling(const std::string& dir) {
   std::ostringstream gp;
   gp << "set terminal pngcairo size 900,600 font 'sans,10'\n"
      << "set output '" << dir << "/scaling.png'\n"
+     << "set termoption noenhanced\n"
      << "set datafile separator ','\n"
      << "set logscale x\nset grid\nset key top left\n"
      << "set yrange [0:*]\n"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Short form of the hard-case stability suite (bench/hard_cases.py --short): 4 scenes of
-# config/hard/ x {explicit, backward_euler} x {1/1000 s, 1/60 s}. Asserts that every setting
-# expected stable (the implicit method at both steps, explicit at 1/1000 s) passes every criterion
-# (finite, strain, contact, energy, repairs); explicit at 1/60 s is run and reported, not asserted.
+# config/hard/ x {explicit, backward_euler, theta} x {1/1000 s, 1/60 s}. Asserts that every
+# setting expected stable (the two implicit methods at both steps: 16 runs) passes every criterion
+# (finite, strain, contact, energy, repairs); explicit is run and reported, not asserted (its
+# stability bound lies below both steps).
 # Long form and criteria: README "Stability on hard cases".
 set -u
 build=$1
@@ -16,11 +17,15 @@ cat "$out/hard_cases_short.md"
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 exp = [r for r in rows if r["expected_stable"] == "True"]
+# 4 scenes x 3 integrators x 2 steps, 2 of the integrators asserted: a suite that silently ran
+# fewer settings must not pass.
+if len(rows) != 24 or len(exp) != 16:
+    print("FAIL: expected 24 runs with 16 asserted, got %d with %d" % (len(rows), len(exp)))
 bad = [r for r in exp if r["status"] != "stable"]
 for r in bad:
     print("FAIL: %s %s %s: %s\n  reproduce: %s" % (r["scene"], r["integrator"], r["substep"], r["failed"], r["command"]))
 print("%d passed, %d failed" % (len(exp) - len(bad), len(bad)))
-sys.exit(1 if bad or len(exp) != 12 else 0)
+sys.exit(1 if bad or len(rows) != 24 or len(exp) != 16 else 0)
 PY
 rc2=$?
 [ "$rc" -eq 0 ] && [ "$rc2" -eq 0 ]
