@@ -104,6 +104,12 @@ bool CoreSpringConfig::validate(const std::string& p, std::string* why) const {
 }
 
 bool CollisionConfig::validate(const std::string& p, std::string* why) const {
+  if (constraint_rounds < 0 || constraint_rounds > 100) {
+    if (why)
+      *why = p + "constraint_rounds: " + std::to_string(constraint_rounds) +
+             " is outside [0, 100]";
+    return false;
+  }
   return finiteInRange(p + "offset_m", offset_m, 0.0, 0.05, why) &&
          finiteInRange(p + "friction", friction, 0.0, 10.0, why);
 }

@@ -51,6 +51,7 @@ void StepStats::accumulate(const StepStats& o) {
   strain_limited_edges += o.strain_limited_edges;
   velocity_clamps += o.velocity_clamps;
   head_contacts += o.head_contacts;
+  constraint_rounds += o.constraint_rounds;
   repaired_strands += o.repaired_strands;
   curl_particle_substeps += o.curl_particle_substeps;
   adhesion_particle_substeps += o.adhesion_particle_substeps;
@@ -392,13 +393,16 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
 
   // 7. Head collision (§6): projection to the offset surface, inelastic, Coulomb friction. The
   // head's velocity at the particle comes from the two interpolated poses.
-  if (config.collision.head_enabled) {
+  const bool head_stage = config.collision.head_enabled;
+  const bool obstacle_collision = obstacle_stage && config.obstacle.enabled;
+  // Rotation matrices once per strand-substep instead of a quaternion product per particle.
+  const Mat3 r1 = pose1.rotation.toRotationMatrix();
+  const Mat3 r1_inverse = r1.transpose();
+  const Mat3 r0 = pose0.rotation.toRotationMatrix();
+  auto collideHead = [&]() {
     const double delta = config.collision.offset_m;
     const double mu = config.collision.friction;
-    // Rotation matrices once per strand-substep instead of a quaternion product per particle.
-    const Mat3 r1 = pose1.rotation.toRotationMatrix();
-    const Mat3 r1_inverse = r1.transpose();
-    const Mat3 r0 = pose0.rotation.toRotationMatrix();
+    uint64_t contacts = 0;
     for (int i = 1; i < n; ++i) {
       const Vec3 x_head = r1_inverse * (p[i] - pose1.translation);
       Vec3 n_head;
@@ -406,45 +410,71 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
       if (dist >= delta) continue;
       const Vec3 v_head = (p[i] - (r0 * x_head + pose0.translation)) / h;
       collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
-      ++stats->head_contacts;
+      ++contacts;
     }
-    laps.lap(kStageHeadCollision, n - 1);
-  }
+    return contacts;
+  };
   // External obstacles (static in the world), same response, their own offset and friction.
-  if (obstacle_stage && config.obstacle.enabled) {
+  auto collideObstacles = [&]() {
     const double delta = config.obstacle.offset_m;
     const double mu = config.obstacle.friction;
+    uint64_t contacts = 0;
     for (int i = 1; i < n; ++i) {
       Vec3 normal;
       const double dist = obstacles->distance(p[i], &normal);
-      if (collideParticle(dist, normal, delta, mu, Vec3::Zero(), &p[i], &v[i]))
-        ++stats->obstacle_contacts;
+      if (collideParticle(dist, normal, delta, mu, Vec3::Zero(), &p[i], &v[i])) ++contacts;
     }
-    stats->obstacle_particle_substeps += n - 1;
-    laps.lap(kStageObstacleCollision, n - 1);
-  }
-
+    return contacts;
+  };
   // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
   const double limit = config.stretch.strain_limit;
   const bool inelastic_limit = config.stretch.limit_velocity == "inelastic";
-  double max_strain = 0.0;
-  for (int i = 0; i < edges; ++i) {
-    const double len = (p[i + 1] - p[i]).norm();
-    max_strain = std::max(max_strain, len / rest[i] - 1.0);
-    const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
-    if (disp.squaredNorm() > 0.0) {
-      p[i + 1] += disp;
-      if (inelastic_limit) {
-        // Remove the edge's stretching relative velocity only: never adds energy, even when a
-        // collider keeps pushing the particle back out every substep.
-        const Vec3 e = (p[i + 1] - p[i]).normalized();
-        const double a = (v[i + 1] - v[i]).dot(e);
-        if (a > 0.0) v[i + 1] -= a * e;
-      } else {
-        v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
+  auto limitStrain = [&](bool count) {
+    double max_strain = 0.0;
+    for (int i = 0; i < edges; ++i) {
+      const double len = (p[i + 1] - p[i]).norm();
+      max_strain = std::max(max_strain, len / rest[i] - 1.0);
+      const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
+      if (disp.squaredNorm() > 0.0) {
+        p[i + 1] += disp;
+        if (inelastic_limit) {
+          // Remove the edge's stretching relative velocity only: never adds energy, even when a
+          // collider keeps pushing the particle back out every substep.
+          const Vec3 e = (p[i + 1] - p[i]).normalized();
+          const double a = (v[i + 1] - v[i]).dot(e);
+          if (a > 0.0) v[i + 1] -= a * e;
+        } else {
+          v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
+        }
+        if (count) ++stats->strain_limited_edges;
       }
-      ++stats->strain_limited_edges;
     }
+    return max_strain;
+  };
+  uint64_t touched = 0;
+  if (head_stage) {
+    const uint64_t contacts = collideHead();
+    stats->head_contacts += contacts;
+    touched += contacts;
+    laps.lap(kStageHeadCollision, n - 1);
+  }
+  if (obstacle_collision) {
+    const uint64_t contacts = collideObstacles();
+    stats->obstacle_contacts += contacts;
+    stats->obstacle_particle_substeps += n - 1;
+    touched += contacts;
+    laps.lap(kStageObstacleCollision, n - 1);
+  }
+  const double max_strain = limitStrain(true);
+  // Further rounds only where something touched: the limit may have pulled a projected particle
+  // back in; project again and limit again until nothing is inside (or the rounds run out). The
+  // strain limit runs last, so the edge bound holds exactly and what remains is a penetration
+  // smaller than the last round's.
+  for (int round = 0; touched > 0 && round < config.collision.constraint_rounds; ++round) {
+    touched = (head_stage ? collideHead() : 0) + (obstacle_collision ? collideObstacles() : 0);
+    if (touched == 0) break;
+    limitStrain(false);
+    ++stats->constraint_rounds;
   }
   laps.lap(kStageStrainLimit, n - 1);
   return max_strain;

@@ -42,6 +42,7 @@ std::string RunSummary::toJson() const {
       .add("velocity_clamps", static_cast<unsigned long long>(velocity_clamps))
       .add("strain_limited_edges", static_cast<unsigned long long>(strain_limited_edges))
       .add("head_contacts", static_cast<unsigned long long>(head_contacts))
+      .add("constraint_rounds", static_cast<unsigned long long>(constraint_rounds))
       .add("hair_frames_written", hair_frames_written)
       .add("clump_distance_m", clump_distance_m)
       .add("jitter", jitter_m)
@@ -380,6 +381,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     s.velocity_clamps += stats.velocity_clamps;
     s.strain_limited_edges += stats.strain_limited_edges;
     s.head_contacts += stats.head_contacts;
+    s.constraint_rounds += stats.constraint_rounds;
     s.adhesion_active += stats.adhesion_active;
     s.obstacle_contacts += stats.obstacle_contacts;
     s.cohesion_particles += stats.cohesion_particles;

@@ -115,6 +115,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   b("solver.collision.head_enabled", &c.collision.head_enabled, "collide with the head", false);
   d("solver.collision.offset_m", &c.collision.offset_m, "collision offset delta, m", false);
   d("solver.collision.friction", &c.collision.friction, "Coulomb friction mu", false);
+  i("solver.collision.constraint_rounds", &c.collision.constraint_rounds,
+    "extra collision + strain-limit rounds in a substep with contact", false);
   str("solver.integrator.method", &c.integrator.method,
       "explicit, backward_euler, midpoint or theta (README \"Speed against error\")", false);
   d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);

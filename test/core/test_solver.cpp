@@ -335,3 +335,72 @@ TEST(Solver, HairDrapesOnTheHeadWithoutPassingThrough) {
     EXPECT_LT(maxHeadPenetration(m, st, headPose(nod, t)), 1e-4) << t;
   });
 }
+
+/// One edge from a root on a sphere (R = 0.1 m) to a particle the collision pushes out radially,
+/// 3 rest lengths from the root: the strain limit then pulls it back along the chord, which
+/// runs inside the sphere (sag c^2 / 8R ~ 1.1 mm at the middle of a 3 cm chord, more than the
+/// 1 mm offset). No springs, gravity or velocity: only the two constraints act.
+struct ChordCase {
+  static constexpr double kRadius = 0.1;
+  static constexpr double kRest = 0.01;
+  HairModel model;
+  SolverConfig config;
+  HairState state;
+  HeadShape head;
+  explicit ChordCase(int rounds) {
+    head.ellipsoid.radii_m = Vec3::Constant(kRadius);
+    const Vec3 root(0, 0, kRadius);
+    Groom g;
+    g.strand_offsets = {0, 2};
+    g.points = {root, root + Vec3(0, 0, kRest)};
+    g.root_normals = {Vec3::UnitZ()};
+    config.stretch.stiffness_n_per_m = 0.0;
+    config.stretch.damping_ns_per_m = 0.0;
+    config.bend.stiffness_n_per_m = 0.0;
+    config.bend.damping_ns_per_m = 0.0;
+    config.core.stiffness_n_per_m = 0.0;
+    config.core.damping_ns_per_m = 0.0;
+    config.gravity_m_s2 = Vec3::Zero();
+    config.stiffness.global_factor = 1.0;
+    config.integrator.substep_s = kFrame;
+    config.collision.constraint_rounds = rounds;
+    buildModelUnchecked(g, 1e-4, head, config, &model);
+    state = makeState(model, Pose(), Twist());
+    // 0.3 rad down the sphere from the root (chord ~3 cm), 5 mm under the surface.
+    const double phi = 0.3;
+    state.position[1] = (kRadius - 0.005) * Vec3(std::sin(phi), 0, std::cos(phi));
+    state.last_good_position[1] = state.position[1];
+  }
+  double surfaceDistance() const {
+    Vec3 n;
+    return head.distance(state.position[1], &n);
+  }
+  double strain() const { return (state.position[1] - state.position[0]).norm() / kRest - 1.0; }
+};
+
+TEST(Solver, CollisionAndStrainLimitRoundsLeaveNothingInside) {
+  StepStats stats;
+  ChordCase one_round(0);
+  step(one_round.model, one_round.config, StepInputs(), kFrame, &one_round.state, &stats);
+  // One round: the limit runs last and leaves the particle under the surface.
+  EXPECT_LT(one_round.surfaceDistance(), -1e-4);
+  EXPECT_NEAR(one_round.strain(), one_round.config.stretch.strain_limit, 1e-9);
+  EXPECT_EQ(stats.constraint_rounds, 0u);
+
+  ChordCase rounds(3);
+  step(rounds.model, rounds.config, StepInputs(), kFrame, &rounds.state, &stats);
+  // Three more rounds: outside (within the 1 mm cushion is allowed), strain still limited.
+  EXPECT_GT(rounds.surfaceDistance(), 0.0);
+  EXPECT_LE(rounds.strain(), rounds.config.stretch.strain_limit + 1e-9);
+  EXPECT_GE(stats.constraint_rounds, 1u);
+}
+
+TEST(Solver, ConstraintRoundsAreValidatedByName) {
+  SolverConfig c;
+  std::string why;
+  c.collision.constraint_rounds = -1;
+  EXPECT_FALSE(c.validate("solver.", &why));
+  EXPECT_NE(why.find("solver.collision.constraint_rounds"), std::string::npos) << why;
+  c.collision.constraint_rounds = 0;
+  EXPECT_TRUE(c.validate("solver.", &why)) << why;
+}

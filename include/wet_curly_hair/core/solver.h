@@ -53,6 +53,8 @@ struct StepStats {
   uint64_t strain_limited_edges = 0;     ///< edge projections by the strain limiter.
   uint64_t velocity_clamps = 0;          ///< velocity clamps in the damping pass.
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
+  /// Extra collision + strain-limit rounds run (strand-substeps x rounds; CollisionConfig).
+  uint64_t constraint_rounds = 0;
   uint64_t repaired_strands = 0;         ///< strands restored to their last good state.
   uint64_t head_jumps = 0;               ///< 1 when this step's head motion was taken as a jump.
   // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.

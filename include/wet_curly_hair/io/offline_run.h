@@ -63,6 +63,7 @@ struct RunSummary {
   uint64_t velocity_clamps = 0;
   uint64_t strain_limited_edges = 0;
   uint64_t head_contacts = 0;
+  uint64_t constraint_rounds = 0;  ///< extra collision + strain-limit rounds (solver.h)
   int hair_frames_written = 0;
   // Wet model measurements (README "Reproducing the paper"), taken on the output positions
   // (the cohesion display positions p^w when cohesion is "ours", else the simulated ones).
