@@ -11,6 +11,7 @@
 //
 //   wet_curly_hair_bench --out docs/bench            # the long form (tens of minutes)
 //   wet_curly_hair_bench --quick --out /tmp/bench    # a smoke run (seconds): no timing claims
+//   wet_curly_hair_bench --replot --out docs/bench   # redraw the charts from the CSV files
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -58,6 +59,7 @@ struct Options {
   bool gating = true;
   bool cohesion = true;
   std::vector<std::string> only_scenes;
+  bool replot = false;  ///< only redraw the charts from the CSV files already in `out`
 };
 
 /// The benchmark scenes: the built-in groom (soft curls) under different loads.
@@ -217,26 +219,47 @@ void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& s
 }
 
 void plotScaling(const std::string& dir) {
-  std::ostringstream gp;
+  // One data block per (integrator, threads) series, in strand order: the CSV interleaves the
+  // series, and gnuplot breaks a line at every row a filter drops (points only, no lines).
+  const char* combos[][2] = {{"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},
+                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"}};
+  std::map<std::string, std::vector<std::pair<int, std::string>>> series;
+  {
+    std::ifstream in(dir + "/scaling.csv");
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::stringstream ss(line);
+      for (std::string cell; std::getline(ss, cell, ',');) f.push_back(cell);
+      if (f.size() < 7) continue;
+      series[f[0] + "," + f[2]].push_back({std::atoi(f[1].c_str()), f[6]});
+    }
+  }
+  std::ostringstream data, gp;
   gp << "set terminal pngcairo size 900,600 font 'sans,10'\n"
      << "set output '" << dir << "/scaling.png'\n"
      << "set termoption noenhanced\n"
-     << "set datafile separator ','\n"
      << "set logscale x\nset grid\nset key top left\n"
      << "set yrange [0:*]\n"
      << "set title 'Cost per particle-substep against strand count (32 particles per strand)'\n"
      << "set xlabel 'strands'\nset ylabel 'ns per particle-substep (wall)'\n"
      << "plot ";
-  const char* combos[][2] = {{"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},
-                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"}};
-  bool first = true;
+  int block = 0;
   for (const auto& c : combos) {
-    gp << (first ? "" : ", ") << "'" << dir << "/scaling.csv' using (strcol(1) eq '" << c[0]
-       << "' && $3 == " << c[1] << " ? $2 : NaN):7 with linespoints title '" << c[0] << ", "
-       << c[1] << " thread" << (c[1][0] == '1' ? "" : "s") << "'";
-    first = false;
+    auto it = series.find(std::string(c[0]) + "," + c[1]);
+    if (it == series.end()) continue;
+    std::sort(it->second.begin(), it->second.end());
+    for (const auto& [strands, ns] : it->second) data << strands << " " << ns << "\n";
+    data << "\n\n";
+    gp << (block ? ", " : "") << "'" << dir << "/scaling_series.dat' index " << block
+       << " using 1:2 with linespoints title '" << c[0] << ", " << c[1] << " thread"
+       << (c[1][0] == '1' ? "" : "s") << "'";
+    ++block;
   }
   gp << "\n";
+  if (block == 0) return;
+  writeFile(dir + "/scaling_series.dat", data.str());
   const std::string script = dir + "/scaling.gp";
   writeFile(script, gp.str());
   if (std::system(("gnuplot " + script).c_str()) != 0)
@@ -247,7 +270,7 @@ const char* kUsage =
     "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
     "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
     "                            [--no-work-precision] [--no-gating]\n"
-    "                            [--no-cohesion]\n";
+    "                            [--no-cohesion] [--replot]\n";
 
 }  // namespace
 
@@ -273,6 +296,7 @@ int main(int argc, char** argv) {
     else if (a == "--no-work-precision") opt.work_precision = false;
     else if (a == "--no-gating") opt.gating = false;
     else if (a == "--no-cohesion") opt.cohesion = false;
+    else if (a == "--replot") opt.replot = true;
     else {
       std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
       return 2;
@@ -287,6 +311,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "wet_curly_hair_bench: --repeats, --strands, --seconds and --threads "
                          "must be positive\n");
     return 2;
+  }
+  if (opt.replot) {
+    // Redraws work_precision.png and scaling.png from the CSV files already in --out.
+    if (!haveGnuplot()) {
+      std::fprintf(stderr, "wet_curly_hair_bench: --replot needs gnuplot\n");
+      return 2;
+    }
+    std::vector<std::string> names;
+    for (const BenchScene& b : benchScenes()) names.push_back(b.name);
+    plotWorkPrecision(opt.out, names);
+    plotScaling(opt.out);
+    return 0;
   }
   mkdir(opt.out.c_str(), 0755);
   std::string why;

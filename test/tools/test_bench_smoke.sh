@@ -34,6 +34,15 @@ check "scaling rows for 1 and 2 threads" \
 if command -v gnuplot > /dev/null; then
   check "draws both charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ]"
 fi
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+/usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
+check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md"
+if command -v gnuplot > /dev/null; then
+  rm -f "$out/b/scaling.png"
+  "$bench" --replot --out "$out/b" > /dev/null 2>&1
+  check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"
+fi
 # A point of the chart reproduces by hand with the runner's flags.
 "$run" --seconds 0.2 --strands 6 --integrator theta --substep 0.0041666667 --threads 2 \
   --json "$out/p.json" > /dev/null 2>&1
