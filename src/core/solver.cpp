@@ -429,11 +429,12 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
   const double limit = config.stretch.strain_limit;
   const bool inelastic_limit = config.stretch.limit_velocity == "inelastic";
-  auto limitStrain = [&](bool count) {
-    double max_strain = 0.0;
+  // Returns the number of edges it projected; the largest strain it found goes to *max_strain.
+  auto limitStrain = [&](double* max_strain) {
+    uint64_t projected = 0;
     for (int i = 0; i < edges; ++i) {
       const double len = (p[i + 1] - p[i]).norm();
-      max_strain = std::max(max_strain, len / rest[i] - 1.0);
+      *max_strain = std::max(*max_strain, len / rest[i] - 1.0);
       const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
       if (disp.squaredNorm() > 0.0) {
         p[i + 1] += disp;
@@ -446,10 +447,10 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
         } else {
           v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
         }
-        if (count) ++stats->strain_limited_edges;
+        ++projected;
       }
     }
-    return max_strain;
+    return projected;
   };
   uint64_t touched = 0;
   if (head_stage) {
@@ -465,15 +466,20 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
     touched += contacts;
     laps.lap(kStageObstacleCollision, n - 1);
   }
-  const double max_strain = limitStrain(true);
-  // Further rounds only where something touched: the limit may have pulled a projected particle
-  // back in; project again and limit again until nothing is inside (or the rounds run out). The
-  // strain limit runs last, so the edge bound holds exactly and what remains is a penetration
-  // smaller than the last round's.
-  for (int round = 0; touched > 0 && round < config.collision.constraint_rounds; ++round) {
+  double max_strain = 0.0;
+  uint64_t projected = limitStrain(&max_strain);
+  stats->strain_limited_edges += projected;
+  // Further rounds only where something touched and the limit then moved a particle: only that
+  // can have pulled a projected particle back in (hair resting on the scalp, within the limit,
+  // needs none). Project again and limit again until nothing is inside or nothing moves (or the
+  // rounds run out). The strain limit runs last, so the edge bound holds exactly and what remains
+  // is a penetration smaller than the last round's.
+  for (int round = 0; touched > 0 && projected > 0 && round < config.collision.constraint_rounds;
+       ++round) {
     touched = (head_stage ? collideHead() : 0) + (obstacle_collision ? collideObstacles() : 0);
     if (touched == 0) break;
-    limitStrain(false);
+    double unused = 0.0;
+    projected = limitStrain(&unused);
     ++stats->constraint_rounds;
   }
   laps.lap(kStageStrainLimit, n - 1);

@@ -50,7 +50,7 @@ struct CollisionConfig {
   double offset_m = 0.001;  ///< delta: particles are kept this far outside the surface, m.
   double friction = 0.3;    ///< Coulomb coefficient mu, dimensionless.
   /// Extra collision/strain-limit rounds in a substep where a particle touched the head or an
-  /// obstacle. The strain limit runs after the collisions and can pull a projected particle
+  /// obstacle and the strain limit then moved a particle of that strand. The strain limit runs after the collisions and can pull a projected particle
   /// back inside (with one substep per frame, 4 mm into a top-knot, measured); each round
   /// projects again and limits again, Gauss-Seidel on the two constraint sets. 0 = one round.
   int constraint_rounds = 3;
