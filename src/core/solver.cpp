@@ -7,6 +7,7 @@
 #include <omp.h>
 #endif
 
+#include "solver_internal.h"
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
@@ -22,8 +23,8 @@ int substepCount(const SolverConfig& config, double dt_s) {
 }
 
 int dampingPassCount(const HairModel& model, const SolverConfig& config, double h) {
-  const double c = config.stretch.damping_ns_per_m + config.bend.damping_ns_per_m +
-                   config.core.damping_ns_per_m;
+  const double c =
+      config.stretch.damping_ns_per_m + config.bend.damping_ns_per_m + config.core.damping_ns_per_m;
   int passes = config.integrator.damping_passes;
   if (c > 0.0 && model.min_mass_kg > 0.0) {
     const double tau_max = 0.9 * model.min_mass_kg / (2.0 * c);
@@ -40,9 +41,17 @@ double integratorTheta(const IntegratorConfig& config) {
 }
 
 const char* stageName(int stage) {
-  static const char* const kNames[kStageCount] = {
-      "frames",    "forces",        "curl",         "adhesion", "integrate",      "head_collision",
-      "obstacle_collision", "strain_limit", "repair", "cohesion", "cohesion_forces"};
+  static const char* const kNames[kStageCount] = {"frames",
+                                                  "forces",
+                                                  "curl",
+                                                  "adhesion",
+                                                  "integrate",
+                                                  "head_collision",
+                                                  "obstacle_collision",
+                                                  "strain_limit",
+                                                  "repair",
+                                                  "cohesion",
+                                                  "cohesion_forces"};
   return stage >= 0 && stage < kStageCount ? kNames[stage] : "unknown";
 }
 
@@ -69,31 +78,6 @@ void StepStats::accumulate(const StepStats& o) {
 
 namespace {
 
-/// Lap timer over the stages of one strand-substep: one clock read per stage, none without a
-/// clock. Always counts the particles each stage ran on.
-class StageLaps {
- public:
-  StageLaps(ClockFn clock, StepStats* stats) : clock_(clock), stats_(stats) {
-    if (clock_) last_ = clock_();
-  }
-  void lap(int stage, uint64_t particles) {
-    stats_->stage_particles[stage] += particles;
-    if (!clock_) return;
-    const double now = clock_();
-    stats_->stage_cpu_s[stage] += now - last_;
-    last_ = now;
-  }
-  /// Starts the next lap without charging the time since the last one to any stage.
-  void skip() {
-    if (clock_) last_ = clock_();
-  }
-
- private:
-  ClockFn clock_;
-  StepStats* stats_;
-  double last_ = 0.0;
-};
-
 /// The axial spring f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b) linearised:
 /// d f / d e = k [u u^T + (1 - L / |e|) (I - u u^T)], u = e / |e|, written as
 /// isotropic + axial * u u^T. The transverse term is clamped at zero under compression so that
@@ -102,7 +86,7 @@ class StageLaps {
 struct AxialJacobian {
   Vec3 u = Vec3::Zero();  ///< unit direction (zero when degenerate)
   double isotropic = 0.0;
-  double axial = 0.0;     ///< added along u u^T
+  double axial = 0.0;  ///< added along u u^T
 };
 
 inline AxialJacobian axialSpringJacobian(const Vec3& e, double rest, double k) {
@@ -124,14 +108,135 @@ inline Mat3 isotropicPlusDyads(double a, double b, const Vec3& u, double c, cons
 
 }  // namespace
 
-namespace {
+namespace detail {
 
 bool stiffnessActive(const SolverConfig& config, const StrandFlags& flags) {
   const StiffnessConfig& st = config.stiffness;
   return st.global_factor < 1.0 || (flags.wet && st.wet_factor < 1.0) || st.dry_factor < 1.0;
 }
 
-}  // namespace
+SubstepMotion substepMotion(const StepInputs& inputs, double s0, double s1, double h) {
+  SubstepMotion m;
+  m.pose0 = interpolate(inputs.head_start, inputs.head_end, s0);
+  m.pose1 = interpolate(inputs.head_start, inputs.head_end, s1);
+  const Eigen::AngleAxisd turn(m.pose1.rotation * m.pose0.rotation.conjugate());
+  m.omega = turn.axis() * (turn.angle() / h);
+  m.head_velocity = (m.pose1.translation - m.pose0.translation) / h;
+  // Rotation matrices once per substep instead of a quaternion product per particle.
+  m.r0 = m.pose0.rotation.toRotationMatrix();
+  m.r1 = m.pose1.rotation.toRotationMatrix();
+  m.r1_inverse = m.r1.transpose();
+  return m;
+}
+
+uint64_t collideHeadParticles(const HairModel& model, const CollisionConfig& config,
+                              const SubstepMotion& motion, double h, Vec3* p, Vec3* v, int n) {
+  const double delta = config.offset_m;
+  const double mu = config.friction;
+  uint64_t contacts = 0;
+  for (int i = 1; i < n; ++i) {
+    const Vec3 x_head = motion.r1_inverse * (p[i] - motion.pose1.translation);
+    Vec3 n_head;
+    const double dist = model.head.distance(x_head, &n_head);
+    if (dist >= delta) continue;
+    const Vec3 v_head = (p[i] - (motion.r0 * x_head + motion.pose0.translation)) / h;
+    collideParticle(dist, motion.r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
+    ++contacts;
+  }
+  return contacts;
+}
+
+uint64_t collideObstacleParticles(const Obstacles& obstacles, const ObstacleCollisionConfig& config,
+                                  Vec3* p, Vec3* v, int n) {
+  uint64_t contacts = 0;
+  for (int i = 1; i < n; ++i) {
+    Vec3 normal;
+    const double dist = obstacles.distance(p[i], &normal);
+    if (collideParticle(dist, normal, config.offset_m, config.friction, Vec3::Zero(), &p[i], &v[i]))
+      ++contacts;
+  }
+  return contacts;
+}
+
+uint64_t limitStrainEdges(const StretchConfig& config, const double* rest, double h, Vec3* p,
+                          Vec3* v, int n, double* max_strain) {
+  const double limit = config.strain_limit;
+  const bool inelastic_limit = config.limit_velocity == "inelastic";
+  uint64_t projected = 0;
+  for (int i = 0; i + 1 < n; ++i) {
+    const double len = (p[i + 1] - p[i]).norm();
+    *max_strain = std::max(*max_strain, len / rest[i] - 1.0);
+    const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
+    if (disp.squaredNorm() > 0.0) {
+      p[i + 1] += disp;
+      if (inelastic_limit) {
+        // Remove the edge's stretching relative velocity only: never adds energy, even when a
+        // collider keeps pushing the particle back out every substep.
+        const Vec3 e = (p[i + 1] - p[i]).normalized();
+        const double a = (v[i + 1] - v[i]).dot(e);
+        if (a > 0.0) v[i + 1] -= a * e;
+      } else {
+        v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
+      }
+      ++projected;
+    }
+  }
+  return projected;
+}
+
+uint64_t extraConstraintRounds(const HairModel& model, const SolverConfig& config,
+                               const Obstacles* obstacles, bool obstacle_collision,
+                               const SubstepMotion& motion, const double* rest, double h,
+                               uint64_t touched, uint64_t projected, Vec3* p, Vec3* v, int n) {
+  // Only where something touched and the limit then moved a particle: only that can have pulled
+  // a projected particle back in (hair resting on the scalp, within the limit, needs none).
+  // Project again and limit again until nothing is inside or nothing moves (or the rounds run
+  // out). The strain limit runs last, so the edge bound holds exactly and what remains is a
+  // penetration smaller than the last round's.
+  const bool head_stage = config.collision.head_enabled;
+  uint64_t rounds = 0;
+  for (int round = 0; touched > 0 && projected > 0 && round < config.collision.constraint_rounds;
+       ++round) {
+    touched =
+        (head_stage ? collideHeadParticles(model, config.collision, motion, h, p, v, n) : 0) +
+        (obstacle_collision ? collideObstacleParticles(*obstacles, config.obstacle, p, v, n) : 0);
+    if (touched == 0) break;
+    double unused = 0.0;
+    projected = limitStrainEdges(config.stretch, rest, h, p, v, n, &unused);
+    ++rounds;
+  }
+  return rounds;
+}
+
+void updateCurlRotation(const HairModel& model, const CurlConfig& config, int strand,
+                        const Vec3& root, const Vec3& tip, double h, HairState* state) {
+  const Vec3 axis = tip - root;
+  const double len = axis.norm();
+  // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
+  if (!(len > 1e-3 * model.strand_length_m[strand])) return;
+  const Mat3 target_rotation = helixToHairRotation(model.helix_axis[strand], axis / len);
+  const double tc = config.rotation_time_constant_s;
+  if (tc <= 0.0) {
+    state->curl_rotation[strand] = target_rotation;
+  } else {
+    const Quat from(state->curl_rotation[strand]), to(target_rotation);
+    state->curl_rotation[strand] =
+        from.slerp(1.0 - std::exp(-h / tc), to).normalized().toRotationMatrix();
+  }
+}
+
+bool blockUniform(const HairModel& model, int first_strand) {
+  if (first_strand + kStrandLanes > model.strandCount()) return false;
+  const int n = model.strandSize(first_strand);
+  if (n < 2) return false;
+  for (int l = 1; l < kStrandLanes; ++l)
+    if (model.strandSize(first_strand + l) != n) return false;
+  return true;
+}
+
+}  // namespace detail
+
+using detail::stiffnessActive;
 
 void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
                        const StrandFlags& flags, double h, const HairState& state,
@@ -139,8 +244,8 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, int s
   if (!stiffnessActive(config, flags)) return;
   const StiffnessConfig& st = config.stiffness;
   const int begin = model.strandBegin(strand);
-  const double dry = stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h,
-                                     st.reference_step_s);
+  const double dry =
+      stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h, st.reference_step_s);
   for (int i = 0; i < model.strandSize(strand); ++i) {
     const double sigma = state.saturation[begin + i];
     scratch->velocity_factor[i] =
@@ -153,7 +258,7 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, int s
 double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
                      int strand, const StrandFlags& flags, double s0, double s1, double h,
                      HairState* state, StrandScratch* scratch, StepStats* stats) {
-  StageLaps laps(inputs.clock, stats);
+  detail::StageLaps laps(inputs.clock, stats);
   const int begin = model.strandBegin(strand);
   const int n = model.strandSize(strand);
   const int edges = n - 1;
@@ -175,17 +280,17 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
 
   // 1. Root: carried rigidly by the head, interpolated at this substep (§9.2 step 1). Its
   // velocity is the one that lands it exactly on the pose at the end of the substep.
-  const Pose pose0 = interpolate(inputs.head_start, inputs.head_end, s0);
-  const Pose pose1 = interpolate(inputs.head_start, inputs.head_end, s1);
+  const detail::SubstepMotion motion = detail::substepMotion(inputs, s0, s1, h);
+  const Pose& pose0 = motion.pose0;
+  const Pose& pose1 = motion.pose1;
   const Vec3 root_next = pose1.apply(model.rest_position_head[begin]);
   v[0] = (root_next - p[0]) / h;
   // The head's rigid motion over this substep (world frame, about its origin).
-  const Eigen::AngleAxisd turn(pose1.rotation * pose0.rotation.conjugate());
-  const Vec3 omega = turn.axis() * (turn.angle() / h);
-  const Vec3 head_velocity = (pose1.translation - pose0.translation) / h;
+  const Vec3& omega = motion.omega;
+  const Vec3& head_velocity = motion.head_velocity;
 
   // 2. Smoothed curves, frames parallel-transported along the alpha_b curve, bend targets.
-  const Mat3 root_frame = pose0.rotation.toRotationMatrix() * model.root_frame_head[strand];
+  const Mat3 root_frame = motion.r0 * model.root_frame_head[strand];
   smoothDifferences(p, n, model.beta_bend[strand], d);
   transportFrames(root_frame, d, edges, frame);
   for (int i = 0; i < edges; ++i) target[i] = frame[i] * model.bend_local_target[begin + i];
@@ -213,20 +318,7 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   const bool curl_stage = flags.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0;
   const bool curl_spring = config.curl.mode == "spring";
   if (curl_stage) {
-    const Vec3 axis = p[n - 1] - p[0];
-    const double len = axis.norm();
-    // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
-    if (len > 1e-3 * model.strand_length_m[strand]) {
-      const Mat3 target_rotation = helixToHairRotation(model.helix_axis[strand], axis / len);
-      const double tc = config.curl.rotation_time_constant_s;
-      if (tc <= 0.0) {
-        state->curl_rotation[strand] = target_rotation;
-      } else {
-        const Quat from(state->curl_rotation[strand]), to(target_rotation);
-        state->curl_rotation[strand] =
-            from.slerp(1.0 - std::exp(-h / tc), to).normalized().toRotationMatrix();
-      }
-    }
+    detail::updateCurlRotation(model, config.curl, strand, p[0], p[n - 1], h, state);
     const Mat3& rot = state->curl_rotation[strand];
     for (int i = 0; i < edges; ++i) {
       const double s = 0.5 * (sigma[i] + sigma[i + 1]);
@@ -391,97 +483,32 @@ double substepStrand(const HairModel& model, const SolverConfig& config, const S
   }
   laps.lap(kStageIntegrate, n);
 
-  // 7. Head collision (§6): projection to the offset surface, inelastic, Coulomb friction. The
-  // head's velocity at the particle comes from the two interpolated poses.
+  // 7. Head collision (§6) and external obstacles (static in the world, their own offset and
+  // friction), then 9. strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
   const bool head_stage = config.collision.head_enabled;
   const bool obstacle_collision = obstacle_stage && config.obstacle.enabled;
-  // Rotation matrices once per strand-substep instead of a quaternion product per particle.
-  const Mat3 r1 = pose1.rotation.toRotationMatrix();
-  const Mat3 r1_inverse = r1.transpose();
-  const Mat3 r0 = pose0.rotation.toRotationMatrix();
-  auto collideHead = [&]() {
-    const double delta = config.collision.offset_m;
-    const double mu = config.collision.friction;
-    uint64_t contacts = 0;
-    for (int i = 1; i < n; ++i) {
-      const Vec3 x_head = r1_inverse * (p[i] - pose1.translation);
-      Vec3 n_head;
-      const double dist = model.head.distance(x_head, &n_head);
-      if (dist >= delta) continue;
-      const Vec3 v_head = (p[i] - (r0 * x_head + pose0.translation)) / h;
-      collideParticle(dist, r1 * n_head, delta, mu, v_head, &p[i], &v[i]);
-      ++contacts;
-    }
-    return contacts;
-  };
-  // External obstacles (static in the world), same response, their own offset and friction.
-  auto collideObstacles = [&]() {
-    const double delta = config.obstacle.offset_m;
-    const double mu = config.obstacle.friction;
-    uint64_t contacts = 0;
-    for (int i = 1; i < n; ++i) {
-      Vec3 normal;
-      const double dist = obstacles->distance(p[i], &normal);
-      if (collideParticle(dist, normal, delta, mu, Vec3::Zero(), &p[i], &v[i])) ++contacts;
-    }
-    return contacts;
-  };
-  // 9. Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b).
-  const double limit = config.stretch.strain_limit;
-  const bool inelastic_limit = config.stretch.limit_velocity == "inelastic";
-  // Returns the number of edges it projected; the largest strain it found goes to *max_strain.
-  auto limitStrain = [&](double* max_strain) {
-    uint64_t projected = 0;
-    for (int i = 0; i < edges; ++i) {
-      const double len = (p[i + 1] - p[i]).norm();
-      *max_strain = std::max(*max_strain, len / rest[i] - 1.0);
-      const Vec3 disp = limitEdgeLength(p[i], p[i + 1], (1.0 + limit) * rest[i]);
-      if (disp.squaredNorm() > 0.0) {
-        p[i + 1] += disp;
-        if (inelastic_limit) {
-          // Remove the edge's stretching relative velocity only: never adds energy, even when a
-          // collider keeps pushing the particle back out every substep.
-          const Vec3 e = (p[i + 1] - p[i]).normalized();
-          const double a = (v[i + 1] - v[i]).dot(e);
-          if (a > 0.0) v[i + 1] -= a * e;
-        } else {
-          v[i + 1] += disp / h;  // Selle 2008: the projection as a velocity impulse
-        }
-        ++projected;
-      }
-    }
-    return projected;
-  };
   uint64_t touched = 0;
   if (head_stage) {
-    const uint64_t contacts = collideHead();
+    const uint64_t contacts =
+        detail::collideHeadParticles(model, config.collision, motion, h, p, v, n);
     stats->head_contacts += contacts;
     touched += contacts;
     laps.lap(kStageHeadCollision, n - 1);
   }
   if (obstacle_collision) {
-    const uint64_t contacts = collideObstacles();
+    const uint64_t contacts =
+        detail::collideObstacleParticles(*obstacles, config.obstacle, p, v, n);
     stats->obstacle_contacts += contacts;
     stats->obstacle_particle_substeps += n - 1;
     touched += contacts;
     laps.lap(kStageObstacleCollision, n - 1);
   }
   double max_strain = 0.0;
-  uint64_t projected = limitStrain(&max_strain);
+  const uint64_t projected =
+      detail::limitStrainEdges(config.stretch, rest, h, p, v, n, &max_strain);
   stats->strain_limited_edges += projected;
-  // Further rounds only where something touched and the limit then moved a particle: only that
-  // can have pulled a projected particle back in (hair resting on the scalp, within the limit,
-  // needs none). Project again and limit again until nothing is inside or nothing moves (or the
-  // rounds run out). The strain limit runs last, so the edge bound holds exactly and what remains
-  // is a penetration smaller than the last round's.
-  for (int round = 0; touched > 0 && projected > 0 && round < config.collision.constraint_rounds;
-       ++round) {
-    touched = (head_stage ? collideHead() : 0) + (obstacle_collision ? collideObstacles() : 0);
-    if (touched == 0) break;
-    double unused = 0.0;
-    projected = limitStrain(&unused);
-    ++stats->constraint_rounds;
-  }
+  stats->constraint_rounds += detail::extraConstraintRounds(
+      model, config, obstacles, obstacle_collision, motion, rest, h, touched, projected, p, v, n);
   laps.lap(kStageStrainLimit, n - 1);
   return max_strain;
 }
@@ -526,7 +553,8 @@ StrandFlags strandFlags(const HairModel& model, const SolverConfig& config,
                         const StepInputs& inputs, int s, const HairState& state) {
   StrandFlags flags;
   const int begin = model.strandBegin(s);
-  for (int i = begin; i < begin + model.strandSize(s); ++i) flags.wet = flags.wet || state.saturation[i] > 0.0;
+  for (int i = begin; i < begin + model.strandSize(s); ++i)
+    flags.wet = flags.wet || state.saturation[i] > 0.0;
   if (inputs.obstacles && !inputs.obstacles->empty()) {
     // The strand stays within its length of its root during the step (roots move with the head:
     // test both ends of the root's path).
@@ -578,7 +606,8 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     const IntegratorConfig& ic = config.integrator;
     const double travel = (inputs.head_end.translation - inputs.head_start.translation).norm();
     const double turn =
-        Eigen::AngleAxisd(inputs.head_end.rotation * inputs.head_start.rotation.conjugate()).angle();
+        Eigen::AngleAxisd(inputs.head_end.rotation * inputs.head_start.rotation.conjugate())
+            .angle();
     if ((ic.teleport_speed_m_s > 0.0 && travel > ic.teleport_speed_m_s * dt_s) ||
         (ic.teleport_angle_rad > 0.0 && turn > ic.teleport_angle_rad)) {
       const Pose jump = inputs.head_end * inputs.head_start.inverse();
@@ -618,27 +647,56 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
         StepStats& ts = per_thread[t];
         prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
         const double strain =
-            substepStrand(model, config, in_, s, flags, double(k) / nsub, double(k + 1) / nsub,
-                          h, state, &state->scratch[t], &ts);
+            substepStrand(model, config, in_, s, flags, double(k) / nsub, double(k + 1) / nsub, h,
+                          state, &state->scratch[t], &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
     }
   } else {
     // Strands couple only through per-step outputs: each strand runs all its substeps at once,
-    // while its particles stay in cache; strands are shared among the threads.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
-    for (int s = 0; s < strands; ++s) {
-      const int t = ompThreadIndex();
-      StepStats& ts = per_thread[t];
+    // while its particles stay in cache; strands are shared among the threads. With the implicit
+    // methods, blocks of detail::kStrandLanes strands of equal size run in SIMD lanes (the blocks
+    // are fixed by strand index, so the result does not depend on the thread count).
+    auto advanceStrand = [&](int s, StepStats& ts, StrandScratch* scratch) {
       const StrandFlags flags = strandFlags(model, config, in_, s, *state);
       ts.wet_strands += flags.wet;
       ts.strands_near_obstacles += flags.near_obstacle;
-      prepareStrandStep(model, config, s, flags, h, *state, &state->scratch[t]);
+      prepareStrandStep(model, config, s, flags, h, *state, scratch);
       for (int k = 0; k < nsub; ++k) {
-        const double strain =
-            substepStrand(model, config, in_, s, flags, double(k) / nsub, double(k + 1) / nsub,
-                          h, state, &state->scratch[t], &ts);
+        const double strain = substepStrand(model, config, in_, s, flags, double(k) / nsub,
+                                            double(k + 1) / nsub, h, state, scratch, &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
+      }
+    };
+    const bool lanes = config.integrator.strand_lanes && integratorTheta(config.integrator) > 0.0;
+    if (lanes) {
+      constexpr int kLanes = detail::kStrandLanes;
+      const int blocks = (strands + kLanes - 1) / kLanes;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 2)
+      for (int blk = 0; blk < blocks; ++blk) {
+        const int t = ompThreadIndex();
+        StepStats& ts = per_thread[t];
+        const int first = blk * kLanes;
+        if (!detail::blockUniform(model, first)) {
+          for (int s = first; s < std::min(strands, first + kLanes); ++s)
+            advanceStrand(s, ts, &state->scratch[t]);
+          continue;
+        }
+        StrandFlags flags[kLanes];
+        for (int l = 0; l < kLanes; ++l) {
+          flags[l] = strandFlags(model, config, in_, first + l, *state);
+          ts.wet_strands += flags[l].wet;
+          ts.strands_near_obstacles += flags[l].near_obstacle;
+        }
+        const double strain = detail::stepStrandBlock(model, config, in_, first, flags, nsub, h,
+                                                      state, &state->scratch[t], &ts);
+        ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
+      }
+    } else {
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
+      for (int s = 0; s < strands; ++s) {
+        const int t = ompThreadIndex();
+        advanceStrand(s, per_thread[t], &state->scratch[t]);
       }
     }
   }

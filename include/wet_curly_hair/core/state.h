@@ -39,6 +39,11 @@ struct StrandScratch {
   /// Eq. (13) velocity factor per particle for the current strand and substep length (the
   /// saturation is constant within a step): computed once per strand and step, not per substep.
   std::vector<double> velocity_factor;
+  /// Structure-of-arrays storage of a block of strands advanced in SIMD lanes (the implicit
+  /// integrators with IntegratorConfig::strand_lanes), for strands of up to lane_capacity
+  /// particles.
+  std::vector<double> lane_buffer;
+  int lane_capacity = 0;
   void resize(int max_strand_size);
 };
 
