@@ -159,6 +159,10 @@ struct LaneArrays {
   V3L *p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
   M3L *block, *pivot_inverse;
   D4 *m, *inv_m, *rest, *core_rest, *sigma, *factor;
+  // Obstacle distance cache: where each particle's distance was last evaluated, and by how much
+  // it then exceeded the reach of the obstacle stages (negative: evaluate next time).
+  V3L* obstacle_anchor;
+  D4* obstacle_slack;
 };
 
 LaneArrays carve(StrandScratch* scratch) {
@@ -186,6 +190,8 @@ LaneArrays carve(StrandScratch* scratch) {
   a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3();
   a.block = m3(), a.pivot_inverse = m3();
   a.m = d4(), a.inv_m = d4(), a.rest = d4(), a.core_rest = d4(), a.sigma = d4(), a.factor = d4();
+  a.obstacle_anchor = v3();
+  a.obstacle_slack = d4();
   return a;
 }
 
@@ -300,6 +306,19 @@ inline void collideLanes(M4 contact, D4 d, const V3L& n, double delta, double mu
 
 inline uint64_t laneCount(M4 m, int l) { return m[l] != 0 ? 1 : 0; }
 
+/// Lanes whose obstacle distance must be evaluated at x. A signed distance changes by at most
+/// L |dx| when the point moves by dx: L = 1 for the analytic shapes (and the field's extension
+/// outside its box), L <= sqrt(3) for the trilinear field (each partial derivative is a weighted
+/// mean of sample differences over one voxel, at most one voxel each). While 2 |x - anchor| stays
+/// below the slack, the distance is still beyond the reach of collision and adhesion, so neither
+/// can act and the evaluation is skipped: same result, less work where a strand near an
+/// obstacle has most of its particles far from it.
+inline M4 obstacleDistanceNeeded(const V3L& x, const V3L& anchor, D4 slack) {
+  const V3L dx = x - anchor;
+  const M4 still_beyond = (slack > splat(0.0)) & (splat(4.0) * dot(dx, dx) < slack * slack);
+  return ~still_beyond;
+}
+
 }  // namespace
 
 double stepStrandBlock(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
@@ -347,6 +366,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
       a.m[i][l] = model.mass_kg[k];
       a.inv_m[i][l] = model.inv_mass[k];
       a.factor[i][l] = stiffness_on[l] ? scratch->velocity_factor[i] : 1.0;
+      a.obstacle_slack[i][l] = -1.0;
       if (i < edges) {
         a.rest[i][l] = model.rest_edge_m[k];
         a.core_rest[i][l] = model.core_rest_m[k];
@@ -379,6 +399,15 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
   D4 max_strain = splat(0.0);
   const double limit = config.stretch.strain_limit;
   const bool inelastic_limit = config.stretch.limit_velocity == "inelastic";
+  // Beyond this distance neither obstacle collision (offset) nor adhesion (kernel support) acts.
+  const double obstacle_reach = std::max(config.obstacle.offset_m, config.adhesion.radius_m);
+  auto obstacleDistance = [&](int i, int l, Vec3* normal) {
+    const Vec3 x = lane(a.p[i], l);
+    const double dist = obstacles->distance(x, normal);
+    setLane(&a.obstacle_anchor[i], l, x);
+    a.obstacle_slack[i][l] = dist - obstacle_reach;
+    return dist;
+  };
 
   for (int k = 0; k < nsub; ++k) {
     StageLaps laps(inputs.clock, stats);
@@ -467,14 +496,14 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
       const bool literal = config.adhesion.literal_polynomial;
       const double scale = config.adhesion.peak_acceleration_m_s2 / adhesionKernelPeak(hk, literal);
       uint64_t evaluated = 0;
-      for (int l = 0; l < kStrandLanes; ++l) {
-        if (!adhesion_on[l]) continue;
-        for (int i = 1; i < n; ++i) {
+      for (int i = 1; i < n; ++i) {
+        const M4 needed = obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+        for (int l = 0; l < kStrandLanes; ++l) {
           const double sigma = a.sigma[i][l];
-          if (sigma <= 0.0) continue;
+          if (!adhesion_on[l] || sigma <= 0.0 || !needed[l]) continue;
           ++evaluated;
           Vec3 normal;
-          const double dist = obstacles->distance(lane(a.p[i], l), &normal);
+          const double dist = obstacleDistance(i, l, &normal);
           const double ak = adhesionKernel(dist, hk, literal);
           if (ak <= 0.0) continue;
           setLane(&a.f[i], l, lane(a.f[i], l) - (sigma * a.m[i][l] * scale * ak) * normal);
@@ -585,21 +614,29 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
       for (int l = 0; l < kStrandLanes; ++l) stats->head_contacts += touched[l];
       laps.lap(kStageHeadCollision, uint64_t(n - 1) * kStrandLanes);
     }
-    // Obstacles: the field is read lane by lane, with the scalar code.
+    // Obstacles: the field is read lane by lane, with the scalar response, where the distance
+    // cache cannot rule a contact out.
     if (any_obstacle) {
-      uint64_t lanes_on = 0;
-      for (int l = 0; l < kStrandLanes; ++l) {
-        if (!(obstacle_on[l] && config.obstacle.enabled)) continue;
-        ++lanes_on;
-        for (int i = 0; i < n; ++i) p_one[i] = lane(a.p[i], l), v_one[i] = lane(a.v[i], l);
-        const uint64_t contacts =
-            collideObstacleParticles(*obstacles, config.obstacle, p_one, v_one, n);
-        for (int i = 1; i < n; ++i) setLane(&a.p[i], l, p_one[i]), setLane(&a.v[i], l, v_one[i]);
-        stats->obstacle_contacts += contacts;
-        touched[l] += contacts;
+      const double delta = config.obstacle.offset_m;
+      const double mu = config.obstacle.friction;
+      uint64_t evaluated = 0;
+      for (int i = 1; i < n; ++i) {
+        const M4 needed = obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+        for (int l = 0; l < kStrandLanes; ++l) {
+          if (!(obstacle_on[l] && config.obstacle.enabled) || !needed[l]) continue;
+          ++evaluated;
+          Vec3 normal;
+          const double dist = obstacleDistance(i, l, &normal);
+          Vec3 x = lane(a.p[i], l), v = lane(a.v[i], l);
+          if (!collideParticle(dist, normal, delta, mu, Vec3::Zero(), &x, &v)) continue;
+          setLane(&a.p[i], l, x);
+          setLane(&a.v[i], l, v);
+          ++stats->obstacle_contacts;
+          ++touched[l];
+        }
       }
-      stats->obstacle_particle_substeps += uint64_t(n - 1) * lanes_on;
-      laps.lap(kStageObstacleCollision, uint64_t(n - 1) * lanes_on);
+      stats->obstacle_particle_substeps += evaluated;
+      laps.lap(kStageObstacleCollision, evaluated);
     }
     // 9. Strain limit root -> tip, every lane.
     uint64_t projected[kStrandLanes] = {};
