@@ -137,6 +137,43 @@ def scaling(out, sc, common):
                                                      fmt(f(r2, 10000)) if r2 else "-"))
 
 
+def target(out, t):
+    """The issue's headline scene measured on itself: cost and error per candidate setting."""
+    check = [r for r in t if r["integrator"] == "reference_check"]
+    runs = [r for r in t if r["integrator"] != "reference_check"]
+    if not runs:
+        return
+    n = runs[0]["strands"]
+    out.append("\n## Target scene: %s strands x 32, full wet dynamics + obstacle, %s threads\n"
+               % (n, runs[0]["threads"]))
+    if check:
+        c = check[0]
+        out.append("Reference: %s s (RMS difference %s, max %s of strand length).\n" % (
+            c["substep_s"], fmt(float(c["rms_error"])), fmt(float(c["max_error"]))))
+    out.append("| integrator | substep, s | strands in lanes | cohesion display pass | cost, s/s "
+               "| real-time factor | RMS error | max error | stable |")
+    out.append("|---|---|---|---|---|---|---|---|---|")
+    best = None
+    for r in runs:
+        rms = float(r["rms_error"]) if r["rms_error"] else None
+        out.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            r["integrator"], fmt(float(r["substep_s"])), "yes" if r["strand_lanes"] == "1" else "no",
+            r["cohesion"], fmt(float(r["wall_s_per_sim_s"])), fmt(float(r["realtime_factor"])),
+            "%.2f %%" % (100 * rms) if rms is not None else "-",
+            "%.2f %%" % (100 * float(r["max_error"])) if r["max_error"] else "-",
+            "yes" if r["stable"] == "1" else "no"))
+        if rms is not None and rms <= 0.01 and r["stable"] == "1" and r["cohesion"] == "off":
+            if best is None or float(r["realtime_factor"]) > float(best["realtime_factor"]):
+                best = r
+    if best:
+        out.append("\nFastest stable setting within 1 %% RMS: %s at %s s, real-time factor %s "
+                   "(RMS %.2f %%).\n" % (best["integrator"], fmt(float(best["substep_s"])),
+                                          fmt(float(best["realtime_factor"])),
+                                          100 * float(best["rms_error"])))
+    else:
+        out.append("\nNo stable setting within 1 % RMS.\n")
+
+
 def gating(out, g):
     out.append("\n## Model only what the scene needs (100 strands, nodding)\n")
     out.append("| integrator | variant | cost, s/s | / wet | / same without the obstacle |")
@@ -158,6 +195,8 @@ def main():
         common = work_precision(out, rows(os.path.join(d, "work_precision.csv")))
     if os.path.exists(os.path.join(d, "scaling.csv")):
         scaling(out, rows(os.path.join(d, "scaling.csv")), common)
+    if os.path.exists(os.path.join(d, "target.csv")):
+        target(out, rows(os.path.join(d, "target.csv")))
     if os.path.exists(os.path.join(d, "gating.csv")):
         gating(out, rows(os.path.join(d, "gating.csv")))
     text = "\n".join(out) + "\n"

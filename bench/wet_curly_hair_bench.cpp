@@ -45,6 +45,10 @@ struct BenchScene {
 struct Setting {
   std::string integrator;
   double substep_s;
+  /// Implicit methods: strands in SIMD lanes (solver.integrator.strand_lanes); false: one strand
+  /// at a time, the reference path (labelled "<integrator>_per_strand" in the scaling CSV).
+  bool lanes = true;
+  std::string label() const { return lanes ? integrator : integrator + "_per_strand"; }
 };
 
 struct Options {
@@ -58,6 +62,7 @@ struct Options {
   bool work_precision = true;
   bool gating = true;
   bool cohesion = true;
+  bool target = true;  ///< the issue's headline scene: 1,000 strands, full wet model, obstacle
   std::vector<std::string> only_scenes;
   bool replot = false;  ///< only redraw the charts from the CSV files already in `out`
 };
@@ -122,6 +127,7 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   scene.solver.integrator.method = setting.integrator;
   scene.solver.integrator.substep_s = setting.substep_s;
   scene.solver.integrator.threads = threads;
+  scene.solver.integrator.strand_lanes = setting.lanes;
   if (!scene.solver.validate("solver.", why)) return false;
   io::RunOptions options;
   options.measure = false;
@@ -222,7 +228,8 @@ void plotScaling(const std::string& dir) {
   // One data block per (integrator, threads) series, in strand order: the CSV interleaves the
   // series, and gnuplot breaks a line at every row a filter drops (points only, no lines).
   const char* combos[][2] = {{"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},
-                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"}};
+                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"},
+                             {"theta_per_strand", "1"}, {"theta_per_strand", "2"}};
   std::map<std::string, std::vector<std::pair<int, std::string>>> series;
   {
     std::ifstream in(dir + "/scaling.csv");
@@ -270,7 +277,7 @@ const char* kUsage =
     "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
     "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
     "                            [--no-work-precision] [--no-gating]\n"
-    "                            [--no-cohesion] [--replot]\n";
+    "                            [--no-cohesion] [--no-target] [--replot]\n";
 
 }  // namespace
 
@@ -296,6 +303,7 @@ int main(int argc, char** argv) {
     else if (a == "--no-work-precision") opt.work_precision = false;
     else if (a == "--no-gating") opt.gating = false;
     else if (a == "--no-cohesion") opt.cohesion = false;
+    else if (a == "--no-target") opt.target = false;
     else if (a == "--replot") opt.replot = true;
     else {
       std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
@@ -405,10 +413,13 @@ int main(int argc, char** argv) {
     std::vector<int> counts = opt.quick ? std::vector<int>{10, 40}
                                         : std::vector<int>{100, 300, 1000, 3000, 10000};
     const std::vector<Setting> settings =
-        opt.quick ? std::vector<Setting>{{"explicit", 2e-4}, {"theta", 1.0 / 240}}
+        opt.quick ? std::vector<Setting>{{"explicit", 2e-4},
+                                         {"theta", 1.0 / 240},
+                                         {"theta", 1.0 / 240, false}}
                   : std::vector<Setting>{{"explicit", 2e-4},
                                          {"backward_euler", 1.0 / 240},
-                                         {"theta", 1.0 / 240}};
+                                         {"theta", 1.0 / 240},
+                                         {"theta", 1.0 / 240, false}};
     std::ostringstream csv;
     csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,ns_per_particle_substep,"
            "realtime_factor,runs\n";
@@ -441,12 +452,12 @@ int main(int argc, char** argv) {
           const double cost = median(walls);
           const double substeps = 1.0 / run.summary.substep_s;
           const double ns = 1e9 * cost / (run.summary.particles * substeps);
-          csv << setting.integrator << "," << count << "," << threads << ","
+          csv << setting.label() << "," << count << "," << threads << ","
               << fmt(run.summary.substep_s) << "," << run.summary.particles << "," << fmt(cost)
               << "," << fmt(ns) << "," << fmt(1.0 / cost) << "," << repeats << "\n";
           std::printf("scaling %-15s %6d strands %d thread(s): %7.1f ns/particle-substep, "
                       "real-time factor %.3f\n",
-                      setting.integrator.c_str(), count, threads, ns, 1.0 / cost);
+                      setting.label().c_str(), count, threads, ns, 1.0 / cost);
           std::fflush(stdout);
         }
       }
@@ -488,6 +499,94 @@ int main(int argc, char** argv) {
       }
     }
     all_ok = writeFile(opt.out + "/cohesion.csv", csv.str()) && all_ok;
+  }
+  if (opt.target) {
+    // The headline target: 1,000 strands x 32 particles, the full wet dynamics (curl, eq. 13,
+    // adhesion) and an obstacle (obstacle_slide), 2 threads: cost and error of the candidate
+    // settings measured on that scene itself, against a reference at a substep 16 times smaller
+    // than the smallest candidate (the midpoint method, whose error vanishes with the step like
+    // every other's), checked against 32 times smaller. The per-frame cohesion display pass
+    // (it never feeds back into the dynamics, A14) is measured on top, exact and lattice.
+    const int strands = opt.quick ? 8 : 1000;
+    const int threads = 2;
+    const double seconds = opt.quick ? 0.1 : 1.0;
+    const std::vector<Setting> candidates =
+        opt.quick ? std::vector<Setting>{{"theta", 2e-3}, {"theta", 2e-3, false}}
+                  : std::vector<Setting>{{"theta", 1e-3},        {"theta", 2e-3},
+                                         {"midpoint", 1e-3},     {"midpoint", 2e-3},
+                                         {"backward_euler", 1e-3}, {"theta", 1.0 / 240},
+                                         {"midpoint", 1.0 / 240}, {"theta", 1e-3, false},
+                                         {"theta", 2e-3, false}};
+    double smallest = candidates.front().substep_s;
+    for (const Setting& c : candidates) smallest = std::min(smallest, c.substep_s);
+    BenchScene target = benchScenes()[4];
+    BenchScene dynamics = target;
+    dynamics.overrides.push_back({"solver.cohesion.mode", "off"});
+    io::SceneConfig scene;
+    if (!makeScene(dynamics, strands, seconds, &scene, &why)) {
+      std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
+      return 2;
+    }
+    const double length = scene.groom.length_m;
+    RunResult ref, chk;
+    if (!runOnce(scene, {"midpoint", smallest / 16.0}, threads, true, &ref, &why) ||
+        !runOnce(scene, {"midpoint", smallest / 32.0}, threads, true, &chk, &why)) {
+      std::fprintf(stderr, "wet_curly_hair_bench: target reference: %s\n", why.c_str());
+      return 2;
+    }
+    const Error converged = frameError(ref.frames, chk.frames, length);
+    std::printf("target %d strands: reference midpoint %.3g s vs %.3g s: RMS %.2e, max %.2e\n",
+                strands, smallest / 16.0, smallest / 32.0, converged.rms, converged.max);
+    std::ostringstream csv;
+    csv << "integrator,substep_s,strand_lanes,cohesion,strands,threads,wall_s_per_sim_s,"
+           "realtime_factor,rms_error,max_error,stable,runs\n";
+    csv << "reference_check,midpoint " << fmt(smallest / 16.0) << " vs " << fmt(smallest / 32.0)
+        << ",1,off," << strands << "," << threads << "," << fmt(ref.summary.wall_s) << ",0,"
+        << fmt(converged.rms) << "," << fmt(converged.max) << ",1,1\n";
+    auto measure = [&](const io::SceneConfig& sc, const Setting& setting, const char* cohesion,
+                       bool with_error) {
+      std::vector<double> walls;
+      RunResult run;
+      Error err;
+      for (int r = 0; r < opt.repeats; ++r) {
+        if (!runOnce(sc, setting, threads, with_error && r == 0, &run, &why)) return false;
+        if (with_error && r == 0) err = frameError(run.frames, ref.frames, length);
+        walls.push_back(run.summary.wall_s / run.summary.sim_s);
+      }
+      const double cost = median(walls);
+      const bool ok = stable(run.summary, sc.solver.stretch.strain_limit);
+      csv << setting.integrator << "," << fmt(setting.substep_s) << "," << (setting.lanes ? 1 : 0)
+          << "," << cohesion << "," << strands << "," << threads << "," << fmt(cost) << ","
+          << fmt(1.0 / cost) << "," << (with_error ? fmt(err.rms) : "") << ","
+          << (with_error ? fmt(err.max) : "") << "," << (ok ? 1 : 0) << "," << opt.repeats
+          << "\n";
+      std::printf("target %-15s %-9.3g lanes %d cohesion %-5s cost %7.4f s/s (RTF %.2f)", 
+                  setting.integrator.c_str(), setting.substep_s, setting.lanes ? 1 : 0, cohesion,
+                  cost, 1.0 / cost);
+      if (with_error) std::printf("  RMS %.2e  max %.2e", err.rms, err.max);
+      std::printf("  %s\n", ok ? "stable" : "UNSTABLE");
+      std::fflush(stdout);
+      return true;
+    };
+    for (const Setting& c : candidates) {
+      if (!measure(scene, c, "off", true)) {
+        std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
+        return 2;
+      }
+    }
+    // The display pass on top of the dynamics, at the first candidate.
+    for (const char* evaluation : {"exact", "grid"}) {
+      BenchScene with = target;
+      with.overrides.push_back(
+          {"solver.cohesion.evaluation", std::string("\"") + evaluation + "\""});
+      io::SceneConfig sc;
+      if (!makeScene(with, strands, seconds, &sc, &why) ||
+          !measure(sc, candidates.front(), evaluation, false)) {
+        std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
+        return 2;
+      }
+    }
+    all_ok = writeFile(opt.out + "/target.csv", csv.str()) && all_ok;
   }
   if (opt.gating) {
     // "Model only what the scene needs": the same nodding scene dry and fully wet, and with an

@@ -29,6 +29,19 @@ for r in rows:
     ok = ok and ref[r['scene']] < 0.1 * float(r['rms_error'])
 sys.exit(0 if ok else 1)
 PY"
+# The target scene: the reference converged below the error it measures, and the strand lanes
+# give the same error as one strand at a time (same dynamics, different loop).
+check "target rows: candidates stable, lanes and per-strand errors equal" "/usr/bin/python3 - <<PY
+import csv, sys
+rows = list(csv.DictReader(open('$out/b/target.csv')))
+ref = [r for r in rows if r['integrator'] == 'reference_check']
+runs = [r for r in rows if r['integrator'] != 'reference_check']
+ok = len(ref) == 1 and len(runs) == 4 and all(r['stable'] == '1' for r in runs)
+err = [float(r['rms_error']) for r in runs if r['rms_error']]
+ok = ok and len(err) == 2 and abs(err[0] - err[1]) <= 1e-6 * err[0] + 1e-12
+ok = ok and float(ref[0]['rms_error']) < 0.1 * err[0]
+sys.exit(0 if ok else 1)
+PY"
 check "scaling rows for 1 and 2 threads" \
   "[ \$(grep -c ',1,' $out/b/scaling.csv) -ge 2 ] && [ \$(grep -c ',2,' $out/b/scaling.csv) -ge 2 ]"
 if command -v gnuplot > /dev/null; then
@@ -37,7 +50,7 @@ fi
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
-  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md"
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md"
 if command -v gnuplot > /dev/null; then
   rm -f "$out/b/scaling.png"
   "$bench" --replot --out "$out/b" > /dev/null 2>&1
