@@ -257,10 +257,10 @@ void plotScaling(const std::string& dir) {
     }
   }
   std::ostringstream data, gp;
-  gp << "set terminal pngcairo size 900,600 font 'sans,10'\n"
+  gp << "set terminal pngcairo size 1100,600 font 'sans,10'\n"
      << "set output '" << dir << "/scaling.png'\n"
      << "set termoption noenhanced\n"
-     << "set logscale x\nset grid\nset key top left\n"
+     << "set logscale x\nset grid\nset key outside right top\n"
      << "set yrange [0:*]\n"
      << "set title 'Cost per particle-substep against strand count (32 particles per strand)'\n"
      << "set xlabel 'strands'\nset ylabel 'ns per particle-substep (wall)'\n"
