@@ -76,6 +76,51 @@ bool anyWet(const HairState& state) {
 /// SPH density of every particle: all particles within h, own strand and self included (poly6),
 /// summed over the cells' contiguous runs in a loop that vectorises. Also fills the grid's
 /// sorted mass, volume and saturation.
+/// Sum over one cell's run of the sorted particles k = lo .. hi - 1 of m_k W(|x_k - x_i|) (the
+/// poly6 shape). Explicit restrict pointers and a SIMD reduction: inside the neighbour lambda,
+/// with the pointers captured by reference and no reduction clause, the compiler ran this loop
+/// one neighbour at a time with gathers (12 us per wet particle-frame at 1,000 strands). The sum
+/// order within a run is fixed by the vector width, not by the threads.
+inline double densityRun(const double* __restrict sx, const double* __restrict sy,
+                         const double* __restrict sz, const double* __restrict sm, size_t lo,
+                         size_t hi, double xi, double yi, double zi, double h2) {
+  double part = 0.0;
+#pragma omp simd reduction(+ : part)
+  for (size_t k = lo; k < hi; ++k) {
+    const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
+    const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
+    part += sm[k] * (q * q * q);
+  }
+  return part;
+}
+
+struct CohesionSums {
+  double weight = 0.0, x = 0.0, y = 0.0, z = 0.0;
+};
+
+/// Over one cell's run: the sums of eq. (10) over other strands' particles, w = V_k W_ik and
+/// w sigma_k (x_k - x_i). A 0/1 factor for "other strand" (exact) keeps the loads unconditional.
+inline CohesionSums cohesionRun(const double* __restrict sx, const double* __restrict sy,
+                                const double* __restrict sz, const double* __restrict sv,
+                                const double* __restrict ss, const double* __restrict sstrand,
+                                size_t lo, size_t hi, double xi, double yi, double zi, double h2,
+                                double own) {
+  double w_sum = 0.0, ax = 0.0, ay = 0.0, az = 0.0;
+#pragma omp simd reduction(+ : w_sum, ax, ay, az)
+  for (size_t k = lo; k < hi; ++k) {
+    const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
+    const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
+    const double other = sstrand[k] != own ? 1.0 : 0.0;
+    const double w = other * (sv[k] * (q * q * q));
+    const double ws = w * ss[k];
+    w_sum += w;
+    ax += ws * dx;
+    ay += ws * dy;
+    az += ws * dz;
+  }
+  return {w_sum, ax, ay, az};
+}
+
 void computeDensity(const HairModel& model, double h, HairState* state, int threads = 1) {
   const Vec3List& p = state->position;
   NeighborGrid& grid = state->grid;
@@ -94,14 +139,7 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
     const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
     double rho = 0.0;
     forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
-      double part = 0.0;
-#pragma GCC ivdep
-      for (uint32_t k = lo; k < hi; ++k) {
-        const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
-        const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
-        part += sm[k] * (q * q * q);
-      }
-      rho += part;
+      rho += densityRun(sx, sy, sz, sm, lo, hi, xi, yi, zi, h2);
     });
     state->density[i] = norm * rho;
   }
@@ -146,22 +184,11 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
     // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
     double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
     forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
-      double w_sum = 0.0, ax = 0.0, ay = 0.0, az = 0.0;
-#pragma GCC ivdep
-      for (uint32_t k = lo; k < hi; ++k) {
-        const double dx = sx[k] - xi, dy = sy[k] - yi, dz = sz[k] - zi;
-        const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
-        const double w = sstrand[k] != own ? sv[k] * (q * q * q) : 0.0;
-        const double ws = w * ss[k];
-        w_sum += w;
-        ax += ws * dx;
-        ay += ws * dy;
-        az += ws * dz;
-      }
-      weight_sum += w_sum;
-      px += ax;
-      py += ay;
-      pz += az;
+      const CohesionSums run = cohesionRun(sx, sy, sz, sv, ss, sstrand, lo, hi, xi, yi, zi, h2, own);
+      weight_sum += run.weight;
+      px += run.x;
+      py += run.y;
+      pz += run.z;
     });
     const Vec3 pull(px, py, pz);
     // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
