@@ -121,7 +121,8 @@ void expectSameRun(const Outcome& lanes, const Outcome& one, const std::string& 
   EXPECT_EQ(lanes.total.wet_strands, one.total.wet_strands) << what;
   EXPECT_EQ(lanes.total.strands_near_obstacles, one.total.strands_near_obstacles) << what;
   EXPECT_EQ(lanes.total.curl_particle_substeps, one.total.curl_particle_substeps) << what;
-  EXPECT_EQ(lanes.total.stage_particles[kStageIntegrate], one.total.stage_particles[kStageIntegrate])
+  EXPECT_EQ(lanes.total.stage_particles[kStageIntegrate],
+            one.total.stage_particles[kStageIntegrate])
       << what;
   EXPECT_NEAR(double(lanes.total.head_contacts), double(one.total.head_contacts),
               0.01 * one.total.head_contacts + 2)

@@ -19,9 +19,9 @@ struct StepInputs {
   Pose head_start;  ///< head -> world at the start of the step.
   Pose head_end;    ///< head -> world at the end; roots are interpolated at every substep.
   const Obstacles* obstacles = nullptr;  ///< external obstacles (world frame); null: none.
-  /// When set, every stage of the step is timed with it (StepStats::stage_cpu_s). Costs two
-  /// clock reads per stage and strand-substep (~2 % of a dry explicit substep, measured in
-  /// bench/wet_curly_hair_bench).
+  /// When set, every stage of the step is timed with it (StepStats::stage_cpu_s). Costs one
+  /// clock read per stage and strand-substep (block-substep with strand lanes; ~2 % of a dry
+  /// explicit substep, measured in bench/wet_curly_hair_bench).
   ClockFn clock = nullptr;
 };
 
