@@ -21,6 +21,7 @@
 #include "solver_internal.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
+#include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/springs.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
@@ -193,22 +194,6 @@ LaneArrays carve(StrandScratch* scratch) {
   a.obstacle_anchor = v3();
   a.obstacle_slack = d4();
   return a;
-}
-
-/// Eq. (2) on every lane, with each lane's beta.
-inline void smoothDifferencesLanes(const V3L* lambda, int count, D4 beta, V3L* d) {
-  const D4 one_minus = splat(1.0) - beta;
-  const D4 f1 = splat(2.0) * one_minus;
-  const D4 f2 = one_minus * one_minus;
-  const D4 f3 = beta * beta;
-  V3L dm1 = lambda[1] - lambda[0];
-  V3L dm2 = dm1;
-  for (int i = 0; i + 1 < count; ++i) {
-    const V3L di = f1 * dm1 - f2 * dm2 + f3 * (lambda[i + 1] - lambda[i]);
-    d[i] = di;
-    dm2 = dm1;
-    dm1 = di;
-  }
 }
 
 /// I + [v]_x + [v]_x^2 / (1 + c), v = from x to (minimalRotation's small-angle form).
@@ -424,7 +409,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
     a.v[0] = (root_next - a.p[0]) / splat(h);
 
     // 2. Smoothed curves, frames, bend targets.
-    smoothDifferencesLanes(a.p, n, beta_bend, a.d);
+    smoothDifferences(a.p, n, beta_bend, a.d);
     {
       V3L t_prev = column(frame, 0);
       a.target[0] = frame * a.local_target[0];
@@ -446,7 +431,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
         a.target[i] = frame * a.local_target[i];
       }
     }
-    smoothDifferencesLanes(a.p, n, beta_core, a.b);
+    smoothDifferences(a.p, n, beta_core, a.b);
     laps.lap(kStageFrames, uint64_t(n) * kStrandLanes);
 
     // 3. Gravity, stretch, bend and core springs.
@@ -515,7 +500,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
     }
 
     // 4-5 implicit: the theta method of substepStrand, the block-tridiagonal solve per lane.
-    if (cc > 0.0) smoothDifferencesLanes(a.v, n, beta_core, a.nu);
+    if (cc > 0.0) smoothDifferences(a.v, n, beta_core, a.nu);
     for (int i = 0; i < edges; ++i) {
       const V3L e = a.p[i + 1] - a.p[i];
       const V3L dv = a.v[i + 1] - a.v[i];

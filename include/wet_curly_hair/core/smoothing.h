@@ -20,15 +20,18 @@ inline double smoothingBeta(double mean_rest_edge_m, double alpha_m) {
 /// Input: `count` samples lambda (positions or velocities); output: count - 1 differences d.
 /// A critically damped second-order low pass with unit DC gain: a straight uniform strand is
 /// reproduced exactly. Causal root -> tip: d_i depends on lambda_0 .. lambda_{i+1} only.
-inline void smoothDifferences(const Vec3* lambda, int count, double beta, Vec3* d) {
+/// Generic over the sample and scalar types: Vec3 with double here, and the strand-lane types
+/// (four strands, each lane with its own beta) in solver_lanes.cpp.
+template <typename Sample, typename Scalar>
+inline void smoothDifferences(const Sample* lambda, int count, Scalar beta, Sample* d) {
   if (count < 2) return;
-  const double f1 = 2.0 * (1.0 - beta);
-  const double f2 = (1.0 - beta) * (1.0 - beta);
-  const double f3 = beta * beta;
-  Vec3 dm1 = lambda[1] - lambda[0];
-  Vec3 dm2 = dm1;
+  const Scalar f1 = 2.0 * (1.0 - beta);
+  const Scalar f2 = (1.0 - beta) * (1.0 - beta);
+  const Scalar f3 = beta * beta;
+  Sample dm1 = lambda[1] - lambda[0];
+  Sample dm2 = dm1;
   for (int i = 0; i + 1 < count; ++i) {
-    const Vec3 di = f1 * dm1 - f2 * dm2 + f3 * (lambda[i + 1] - lambda[i]);
+    const Sample di = f1 * dm1 - f2 * dm2 + f3 * (lambda[i + 1] - lambda[i]);
     d[i] = di;
     dm2 = dm1;
     dm1 = di;
