@@ -119,7 +119,8 @@ bool makeScene(const BenchScene& b, int strands, double seconds, io::SceneConfig
 
 struct RunResult {
   io::RunSummary summary;
-  std::vector<wet_curly_hair::Vec3List> frames;  ///< output positions per frame (when kept)
+  std::vector<wet_curly_hair::Vec3List> frames;      ///< output positions per frame (when kept)
+  std::vector<wet_curly_hair::Vec3List> sim_frames;  ///< simulated positions (when kept)
 };
 
 bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool keep_frames,
@@ -133,9 +134,11 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   options.measure = false;
   options.stage_timing = stage_timing;  // clock reads cost: off for the cost figures
   result->frames.clear();
+  result->sim_frames.clear();
   if (keep_frames)
     options.on_frame = [&](int, const HairState& state) {
       result->frames.push_back(state.wet_position);
+      result->sim_frames.push_back(state.position);
     };
   return io::runScene(scene, options, &result->summary, why);
 }
@@ -514,12 +517,15 @@ int main(int argc, char** argv) {
     all_ok = writeFile(opt.out + "/cohesion.csv", csv.str()) && all_ok;
   }
   if (opt.target) {
-    // The headline target: 1,000 strands x 32 particles, the full wet dynamics (curl, eq. 13,
-    // adhesion) and an obstacle (obstacle_slide), 2 threads: cost and error of the candidate
-    // settings measured on that scene itself, against a reference at a substep 16 times smaller
+    // The headline target: 1,000 strands x 32 particles, the full wet model (curl, eq. 13,
+    // adhesion, the per-frame cohesion display pass of eq. 10) and an obstacle (obstacle_slide),
+    // 2 threads, measured on that scene itself against a reference at a substep 16 times smaller
     // than the smallest candidate (the midpoint method, whose error vanishes with the step like
-    // every other's), checked against 32 times smaller. The per-frame cohesion display pass
-    // (it never feeds back into the dynamics, A14) is measured on top, exact and lattice.
+    // every other's, with the exact cohesion evaluation), checked against 32 times smaller.
+    // First the dynamics alone (cohesion off; errors of the simulated positions), then the full
+    // model at the fastest candidates: errors of the output positions p^w, which carry the
+    // dynamics' error and the cohesion evaluation's (exact, or the lattice at 4, 3, 2 nodes per
+    // radius in float, and at 4 in double).
     const int strands = opt.quick ? 8 : 1000;
     const int threads = 2;
     const double seconds = opt.quick ? 0.1 : 1.0;
@@ -530,20 +536,39 @@ int main(int argc, char** argv) {
                                          {"backward_euler", 1e-3}, {"theta", 1.0 / 240},
                                          {"midpoint", 1.0 / 240}, {"theta", 1e-3, false},
                                          {"theta", 2e-3, false}};
+    const std::vector<Setting> full_settings =
+        opt.quick ? std::vector<Setting>{{"theta", 2e-3}}
+                  : std::vector<Setting>{{"theta", 2e-3}, {"theta", 1e-3}};
+    struct Display {
+      const char* label;
+      const char* evaluation;
+      int cells;
+      bool single;
+    };
+    const std::vector<Display> displays =
+        opt.quick ? std::vector<Display>{{"exact", "exact", 4, true}, {"grid4", "grid", 4, true}}
+                  : std::vector<Display>{{"exact", "exact", 4, true},
+                                         {"grid4", "grid", 4, true},
+                                         {"grid3", "grid", 3, true},
+                                         {"grid2", "grid", 2, true},
+                                         {"grid4_double", "grid", 4, false}};
     double smallest = candidates.front().substep_s;
     for (const Setting& c : candidates) smallest = std::min(smallest, c.substep_s);
     BenchScene target = benchScenes()[4];
     BenchScene dynamics = target;
     dynamics.overrides.push_back({"solver.cohesion.mode", "off"});
-    io::SceneConfig scene;
-    if (!makeScene(dynamics, strands, seconds, &scene, &why)) {
+    io::SceneConfig scene, full_scene;
+    if (!makeScene(dynamics, strands, seconds, &scene, &why) ||
+        !makeScene(target, strands, seconds, &full_scene, &why)) {
       std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
       return 2;
     }
     const double length = scene.groom.length_m;
+    // The references run the full model (exact cohesion): p^w never feeds back into the dynamics
+    // (A14), so their simulated positions are those of the dynamics alone.
     RunResult ref, chk;
-    if (!runOnce(scene, {"midpoint", smallest / 16.0}, threads, true, &ref, &why) ||
-        !runOnce(scene, {"midpoint", smallest / 32.0}, threads, true, &chk, &why)) {
+    if (!runOnce(full_scene, {"midpoint", smallest / 16.0}, threads, true, &ref, &why) ||
+        !runOnce(full_scene, {"midpoint", smallest / 32.0}, threads, true, &chk, &why)) {
       std::fprintf(stderr, "wet_curly_hair_bench: target reference: %s\n", why.c_str());
       return 2;
     }
@@ -551,15 +576,18 @@ int main(int argc, char** argv) {
     // the step, so the reference converges only over a horizon. The errors are taken over the
     // frames where reference and check stay within 0.1 % RMS (10x below the 1 % budget).
     const double horizon_tolerance = 1e-3;
-    const size_t horizon = convergedHorizon(ref.frames, chk.frames, length, horizon_tolerance);
+    const size_t horizon =
+        convergedHorizon(ref.sim_frames, chk.sim_frames, length, horizon_tolerance);
     const double fps = 1.0 / scene.run.frame_s;
-    const Error whole = frameError(ref.frames, chk.frames, length);
-    const Error converged = frameError(ref.frames, chk.frames, length, horizon);
-    std::printf("target %d strands: reference midpoint %.3g s vs %.3g s: over the whole run RMS "
-                "%.2e, max %.2e; converged (per-frame RMS <= %.0e) over the first %zu frames "
-                "(%.3f s): RMS %.2e, max %.2e\n",
-                strands, smallest / 16.0, smallest / 32.0, whole.rms, whole.max,
-                horizon_tolerance, horizon, (horizon - 1) / fps, converged.rms, converged.max);
+    const Error whole = frameError(ref.sim_frames, chk.sim_frames, length);
+    const Error converged = frameError(ref.sim_frames, chk.sim_frames, length, horizon);
+    const Error converged_out = frameError(ref.frames, chk.frames, length, horizon);
+    std::printf(
+        "target %d strands: reference midpoint %.3g s vs %.3g s: over the whole run RMS "
+        "%.2e, max %.2e; converged (per-frame RMS <= %.0e) over the first %zu frames "
+        "(%.3f s): RMS %.2e, max %.2e (output positions p^w: RMS %.2e, max %.2e)\n",
+        strands, smallest / 16.0, smallest / 32.0, whole.rms, whole.max, horizon_tolerance, horizon,
+        (horizon - 1) / fps, converged.rms, converged.max, converged_out.rms, converged_out.max);
     std::ostringstream csv;
     csv << "integrator,substep_s,strand_lanes,cohesion,strands,threads,wall_s_per_sim_s,"
            "realtime_factor,rms_error,max_error,stable,runs,rms_error_whole_run,"
@@ -569,16 +597,25 @@ int main(int argc, char** argv) {
         << ",1,off," << strands << "," << threads << "," << fmt(ref.summary.wall_s) << ",0,"
         << fmt(converged.rms) << "," << fmt(converged.max) << ",1,1," << fmt(whole.rms) << ","
         << fmt(whole.max) << "," << fmt(horizon_s) << "\n";
+    csv << "reference_check_output,midpoint " << fmt(smallest / 16.0) << " vs "
+        << fmt(smallest / 32.0) << ",1,exact," << strands << "," << threads << ","
+        << fmt(ref.summary.wall_s) << ",0," << fmt(converged_out.rms) << ","
+        << fmt(converged_out.max) << ",1,1," << fmt(frameError(ref.frames, chk.frames, length).rms)
+        << "," << fmt(frameError(ref.frames, chk.frames, length).max) << "," << fmt(horizon_s)
+        << "\n";
+    // Dynamics rows compare simulated positions, full-model rows the output positions.
     auto measure = [&](const io::SceneConfig& sc, const Setting& setting, const char* cohesion,
-                       bool with_error) {
+                       bool output) {
       std::vector<double> walls;
       RunResult run;
       Error err, err_whole;
       for (int r = 0; r < opt.repeats; ++r) {
-        if (!runOnce(sc, setting, threads, with_error && r == 0, &run, &why)) return false;
-        if (with_error && r == 0) {
-          err = frameError(run.frames, ref.frames, length, horizon);
-          err_whole = frameError(run.frames, ref.frames, length);
+        if (!runOnce(sc, setting, threads, r == 0, &run, &why)) return false;
+        if (r == 0) {
+          const auto& mine = output ? run.frames : run.sim_frames;
+          const auto& theirs = output ? ref.frames : ref.sim_frames;
+          err = frameError(mine, theirs, length, horizon);
+          err_whole = frameError(mine, theirs, length);
         }
         walls.push_back(run.summary.wall_s / run.summary.sim_s);
       }
@@ -586,36 +623,37 @@ int main(int argc, char** argv) {
       const bool ok = stable(run.summary, sc.solver.stretch.strain_limit);
       csv << setting.integrator << "," << fmt(setting.substep_s) << "," << (setting.lanes ? 1 : 0)
           << "," << cohesion << "," << strands << "," << threads << "," << fmt(cost) << ","
-          << fmt(1.0 / cost) << "," << (with_error ? fmt(err.rms) : "") << ","
-          << (with_error ? fmt(err.max) : "") << "," << (ok ? 1 : 0) << "," << opt.repeats << ","
-          << (with_error ? fmt(err_whole.rms) : "") << "," << (with_error ? fmt(err_whole.max) : "")
-          << "," << fmt(horizon_s) << "\n";
-      std::printf("target %-15s %-9.3g lanes %d cohesion %-5s cost %7.4f s/s (RTF %.2f)", 
-                  setting.integrator.c_str(), setting.substep_s, setting.lanes ? 1 : 0, cohesion,
-                  cost, 1.0 / cost);
-      if (with_error)
-        std::printf("  RMS %.2e  max %.2e (whole run %.2e, %.2e)", err.rms, err.max, err_whole.rms,
-                    err_whole.max);
-      std::printf("  %s\n", ok ? "stable" : "UNSTABLE");
+          << fmt(1.0 / cost) << "," << fmt(err.rms) << "," << fmt(err.max) << "," << (ok ? 1 : 0)
+          << "," << opt.repeats << "," << fmt(err_whole.rms) << "," << fmt(err_whole.max) << ","
+          << fmt(horizon_s) << "\n";
+      std::printf(
+          "target %-15s %-9.3g lanes %d cohesion %-12s cost %7.4f s/s (RTF %.2f)  RMS "
+          "%.2e  max %.2e (whole run %.2e, %.2e)  %s\n",
+          setting.integrator.c_str(), setting.substep_s, setting.lanes ? 1 : 0, cohesion, cost,
+          1.0 / cost, err.rms, err.max, err_whole.rms, err_whole.max, ok ? "stable" : "UNSTABLE");
       std::fflush(stdout);
       return true;
     };
     for (const Setting& c : candidates) {
-      if (!measure(scene, c, "off", true)) {
+      if (!measure(scene, c, "off", false)) {
         std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
         return 2;
       }
     }
-    // The display pass on top of the dynamics, at the first candidate.
-    for (const char* evaluation : {"exact", "grid"}) {
-      BenchScene with = target;
-      with.overrides.push_back(
-          {"solver.cohesion.evaluation", std::string("\"") + evaluation + "\""});
-      io::SceneConfig sc;
-      if (!makeScene(with, strands, seconds, &sc, &why) ||
-          !measure(sc, candidates.front(), evaluation, false)) {
-        std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
-        return 2;
+    for (const Setting& setting : full_settings) {
+      for (const Display& d : displays) {
+        BenchScene with = target;
+        with.overrides.push_back(
+            {"solver.cohesion.evaluation", std::string("\"") + d.evaluation + "\""});
+        with.overrides.push_back(
+            {"solver.cohesion.grid_cells_per_radius", std::to_string(d.cells)});
+        with.overrides.push_back(
+            {"solver.cohesion.grid_single_precision", d.single ? "true" : "false"});
+        io::SceneConfig sc;
+        if (!makeScene(with, strands, seconds, &sc, &why) || !measure(sc, setting, d.label, true)) {
+          std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
+          return 2;
+        }
       }
     }
     all_ok = writeFile(opt.out + "/target.csv", csv.str()) && all_ok;

@@ -3,6 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 #include "wet_curly_hair/core/wet_kernels.h"
 
@@ -19,108 +24,353 @@ struct Lattice {
   int64_t cells = 0;  ///< nodes per kernel radius: h = cells c
   int64_t nx = 0, ny = 0, nz = 0;
   double ka = 0.0, kb = 0.0;  ///< node kernel K(q) = q (q^2 + ka q + kb), q = h^2 - r^2 >= 0
-  double kernel(double q) const { return q * (q * q + ka * q + kb); }
   int64_t index(int64_t kx, int64_t ky, int64_t kz) const { return (kz * ny + ky) * nx + kx; }
 };
 
-/// The lattice cell holding a point given relative to the origin: its lowest node and the
-/// trilinear fractions.
-struct Cell {
-  int64_t kx, ky, kz;
-  double tx, ty, tz;
+/// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
+template <typename Real>
+struct Lanes;
+template <>
+struct Lanes<double> {
+  typedef double type __attribute__((vector_size(64)));
 };
+template <>
+struct Lanes<float> {
+  typedef float type __attribute__((vector_size(32)));
+};
+constexpr int kLanes = 8;
 
-inline Cell cellOf(const Lattice& L, const Vec3& r) {
-  const double fx = r.x() * L.inv_c, fy = r.y() * L.inv_c, fz = r.z() * L.inv_c;
-  Cell c;
-  c.kx = static_cast<int64_t>(std::floor(fx));
-  c.ky = static_cast<int64_t>(std::floor(fy));
-  c.kz = static_cast<int64_t>(std::floor(fz));
-  c.tx = fx - double(c.kx);
-  c.ty = fy - double(c.ky);
-  c.tz = fz - double(c.kz);
-  return c;
+template <typename V, typename Real>
+inline V loadLanes(const Real* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
 }
 
-/// Calls row(base, kx0, dy, dz, r2yz) for every lattice row (fixed ky, kz) that may hold nodes
-/// within h = cells c of the point r (relative to the origin): the 2 cells nodes base + kx0 ..
-/// base + kx0 + 2 cells - 1, which hold every node of the row within h (the others get q = 0),
-/// node kx at offset (kx c - r.x, dy, dz) from the point, r2yz = dy^2 + dz^2. Fixed-width rows:
-/// no per-row bounds, the loops vectorise. The lattice margin keeps every row inside it.
-template <typename Row>
-inline void forEachRowWithin(const Lattice& L, const Vec3& r, double h, Row row) {
-  const double h2 = h * h;
-  const int64_t cells = L.cells;
-  const int64_t kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - cells + 1;
-  const int64_t ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - cells + 1;
-  const int64_t kz0 = static_cast<int64_t>(std::floor(r.z() * L.inv_c)) - cells + 1;
-  for (int64_t kz = kz0; kz < kz0 + 2 * cells; ++kz) {
-    const double dz = double(kz) * L.c - r.z();
-    if (dz * dz >= h2) continue;
-    for (int64_t ky = ky0; ky < ky0 + 2 * cells; ++ky) {
-      const double dy = double(ky) * L.c - r.y();
-      const double r2 = dy * dy + dz * dz;
-      if (r2 >= h2) continue;
-      row(L.index(0, ky, kz), kx0, dy, dz, r2);
+/// The rows (fixed ky, kz) that may hold nodes within h = kCells c of the point r (relative to
+/// the origin) are 2 kCells nodes wide: kx0 .. kx0 + 2 kCells - 1 holds every node of the row
+/// within h (the others get q = 0). Fixed-width rows need no per-row bounds, and the offsets
+/// dx of a row's nodes are the same for every row; a row is read as whole vectors of 8 lanes,
+/// the lanes past its width given dx^2 = 4 h^2 (q = 0, so the node they read, which the
+/// lattice's padding keeps inside the arrays, counts nothing). The lattice margin keeps every
+/// row inside the lattice. Offsets are computed in double and rounded to Real once.
+template <int kCells, typename Real>
+struct RowWindow {
+  typedef typename Lanes<Real>::type V;
+  static constexpr int kWidth = 2 * kCells;
+  static constexpr int kChunks = (kWidth + kLanes - 1) / kLanes;
+  int64_t kx0, ky0, kz0;
+  V dx[kChunks], dx2[kChunks];
+  Real dy[kWidth], dy2[kWidth], dz[kWidth], dz2[kWidth];  ///< per row and per layer
+  RowWindow(const Lattice& L, const Vec3& r, double h2) {
+    kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - kCells + 1;
+    ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - kCells + 1;
+    kz0 = static_cast<int64_t>(std::floor(r.z() * L.inv_c)) - kCells + 1;
+    for (int j = 0; j < kChunks * kLanes; ++j) {
+      const double d = double(kx0 + j) * L.c - r.x();
+      dx[j / kLanes][j % kLanes] = j < kWidth ? static_cast<Real>(d) : Real(0);
+      dx2[j / kLanes][j % kLanes] = static_cast<Real>(j < kWidth ? d * d : 4.0 * h2);
+    }
+    for (int j = 0; j < kWidth; ++j) {
+      const double ey = double(ky0 + j) * L.c - r.y(), ez = double(kz0 + j) * L.c - r.z();
+      dy[j] = static_cast<Real>(ey);
+      dy2[j] = static_cast<Real>(ey * ey);
+      dz[j] = static_cast<Real>(ez);
+      dz2[j] = static_cast<Real>(ez * ez);
     }
   }
-}
-
-/// sum_n W(|r - x_n|) a_n over the nodes within h (poly6 shape, unnormalised).
-inline double gatherScalar(const Lattice& L, const double* __restrict a, const Vec3& r, double h) {
-  const double h2 = h * h;
-  double sum = 0.0;
-  const int64_t width = 2 * L.cells;
-  forEachRowWithin(L, r, h, [&](int64_t base, int64_t kx0, double, double, double r2yz) {
-    const double* __restrict row = a + base;
-    double part = 0.0;
-    for (int64_t kx = kx0; kx < kx0 + width; ++kx) {
-      const double dx = double(kx) * L.c - r.x();
-      const double q = std::max(0.0, h2 - (dx * dx + r2yz));
-      part += row[kx] * L.kernel(q);
-    }
-    sum += part;
-  });
-  return sum;
-}
-
-/// W~(r, p) = sum over the 8 nodes x_n of p's cell of t_n W(|r - x_n|): the functional the
-/// lattice applies to one particle at p (both relative to the origin).
-inline double interpolatedKernel(const Lattice& L, const Vec3& r, const Vec3& p, double h2) {
-  const Cell c = cellOf(L, p);
-  double sum = 0.0;
-  for (int az = 0; az < 2; ++az) {
-    const double wz = az ? c.tz : 1.0 - c.tz;
-    const double dz = double(c.kz + az) * L.c - r.z();
-    for (int ay = 0; ay < 2; ++ay) {
-      const double wy = ay ? c.ty : 1.0 - c.ty;
-      const double dy = double(c.ky + ay) * L.c - r.y();
-      for (int ax = 0; ax < 2; ++ax) {
-        const double wx = ax ? c.tx : 1.0 - c.tx;
-        const double dx = double(c.kx + ax) * L.c - r.x();
-        const double q = std::max(0.0, h2 - (dx * dx + dy * dy + dz * dz));
-        sum += (wx * wy * wz) * L.kernel(q);
+  /// Calls row(first node, dy, dz, dy^2 + dz^2) for every row with a node within h (in Real: a
+  /// row at the boundary that round-off lets in has q <= 0 to round-off at every node).
+  template <typename Row>
+  void forEachRow(const Lattice& L, double h2d, Row row) const {
+    const Real h2 = static_cast<Real>(h2d);
+    for (int a = 0; a < kWidth; ++a) {
+      if (dz2[a] >= h2) continue;
+      const int64_t layer = L.index(kx0, ky0, kz0 + a);
+      for (int b = 0; b < kWidth; ++b) {
+        const Real r2yz = dy2[b] + dz2[a];
+        if (r2yz >= h2) continue;
+        row(layer + b * L.nx, dy[b], dz[a], r2yz);
       }
     }
   }
+};
+
+/// Sum of the lanes, in double.
+template <typename V>
+inline double laneSum(const V& v) {
+  double s = 0.0;
+  for (int l = 0; l < kLanes; ++l) s += v[l];
+  return s;
+}
+
+/// sum_n W(|r - x_n|) a_n over the nodes within h (node kernel, unnormalised), evaluated in Real.
+/// Each lane keeps its own sum over the rows, added once at the end (a horizontal sum per row
+/// cost more than the row itself).
+template <int kCells, typename Real>
+double gatherScalar(const Lattice& L, const Real* __restrict a, const Vec3& r, double h2d) {
+  typedef RowWindow<kCells, Real> Window;
+  typedef typename Window::V V;
+  const Window win(L, r, h2d);
+  const Real ka = static_cast<Real>(L.ka), kb = static_cast<Real>(L.kb);
+  const Real h2 = static_cast<Real>(h2d);
+  const V zero = {};
+  V acc[Window::kChunks] = {};
+  win.forEachRow(L, h2d, [&](int64_t first, Real, Real, Real r2yz) {
+    for (int c = 0; c < Window::kChunks; ++c) {
+      V q = h2 - (win.dx2[c] + r2yz);
+      q = q > zero ? q : zero;
+      acc[c] += loadLanes<V>(a + first + c * kLanes) * (q * (q * q + ka * q + kb));
+    }
+  });
+  double sum = 0.0;
+  for (int c = 0; c < Window::kChunks; ++c) sum += laneSum(acc[c]);
   return sum;
 }
 
-/// Calls fn(node, t) for the 8 nodes of p's cell with their trilinear weights.
-template <typename Fn>
-inline void forEachCorner(const Lattice& L, const Vec3& p, Fn fn) {
-  const Cell c = cellOf(L, p);
-  for (int az = 0; az < 2; ++az)
-    for (int ay = 0; ay < 2; ++ay)
-      for (int ax = 0; ax < 2; ++ax)
-        fn(L.index(c.kx + ax, c.ky + ay, c.kz + az), c.kx + ax, c.ky + ay, c.kz + az,
-           (ax ? c.tx : 1.0 - c.tx) * (ay ? c.ty : 1.0 - c.ty) * (az ? c.tz : 1.0 - c.tz));
+/// Node arrays of pass 2 (eq. 10 over all strands).
+template <typename Real>
+struct WetNodes {
+  const Real* volume;      ///< V
+  const Real* wet_volume;  ///< S = V sigma
+  const Real* qx;          ///< Q = V sigma (p - x_n)
+  const Real* qy;
+  const Real* qz;
+};
+
+struct WetSums {
+  double weight = 0.0;       ///< sum_n W_in V_n
+  Vec3 pull = Vec3::Zero();  ///< sum_n W_in (Q_n + S_n (x_n - p_i))
+};
+
+template <int kCells, typename Real>
+WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, double h2d) {
+  typedef RowWindow<kCells, Real> Window;
+  typedef typename Window::V V;
+  constexpr int kChunks = Window::kChunks;
+  const Window win(L, r, h2d);
+  const Real ka = static_cast<Real>(L.ka), kb = static_cast<Real>(L.kb);
+  const Real h2 = static_cast<Real>(h2d);
+  const V zero = {};
+  V aw[kChunks] = {}, as[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
+  win.forEachRow(L, h2d, [&](int64_t first, Real dy, Real dz, Real r2yz) {
+    for (int c = 0; c < kChunks; ++c) {
+      const int64_t k = first + c * kLanes;
+      V q = h2 - (win.dx2[c] + r2yz);
+      q = q > zero ? q : zero;
+      const V w = q * (q * q + ka * q + kb);
+      const V ws = w * loadLanes<V>(g.wet_volume + k);
+      aw[c] += w * loadLanes<V>(g.volume + k);
+      as[c] += ws;
+      ax[c] += w * loadLanes<V>(g.qx + k);
+      ay[c] += w * loadLanes<V>(g.qy + k) + ws * dy;
+      az[c] += w * loadLanes<V>(g.qz + k) + ws * dz;
+    }
+  });
+  WetSums sums;
+  for (int c = 0; c < kChunks; ++c) {
+    const V px = ax[c] + as[c] * win.dx[c];
+    sums.weight += laneSum(aw[c]);
+    sums.pull += Vec3(laneSum(px), laneSum(ay[c]), laneSum(az[c]));
+  }
+  return sums;
+}
+
+/// The own strand's share of the lattice sums for particle i: over the strand's particles j
+/// (i included), W~_ij = sum over the 8 nodes x_n of j's cell of t_jn W(|p_i - x_n|), the
+/// functional the lattice applies to one particle, summed as V_j W~_ij and V_j sigma_j W~_ij
+/// (p_j - p_i). Particles beyond the kernel's reach get q = 0 at every corner, so no distance
+/// test is needed and the strand runs in SIMD lanes.
+inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, int begin, int end,
+                              int i, double h2) {
+  const double* __restrict rx = g.rx.data();
+  const double* __restrict ry = g.ry.data();
+  const double* __restrict rz = g.rz.data();
+  const double* __restrict kx = g.kx.data();
+  const double* __restrict ky = g.ky.data();
+  const double* __restrict kz = g.kz.data();
+  const double* __restrict tx = g.tx.data();
+  const double* __restrict ty = g.ty.data();
+  const double* __restrict tz = g.tz.data();
+  const double* __restrict vol = g.volume.data();
+  const double* __restrict wet = g.wet_share.data();
+  const double xi = rx[i], yi = ry[i], zi = rz[i], c = L.c, ka = L.ka, kb = L.kb;
+  double w_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
+#pragma omp simd reduction(+ : w_sum, px, py, pz)
+  for (int j = begin; j < end; ++j) {
+    const double dx0 = kx[j] * c - xi, dx1 = (kx[j] + 1.0) * c - xi;
+    const double dy0 = ky[j] * c - yi, dy1 = (ky[j] + 1.0) * c - yi;
+    const double dz0 = kz[j] * c - zi, dz1 = (kz[j] + 1.0) * c - zi;
+    const double x2[2] = {dx0 * dx0, dx1 * dx1}, y2[2] = {dy0 * dy0, dy1 * dy1},
+                 z2[2] = {dz0 * dz0, dz1 * dz1};
+    const double wx[2] = {1.0 - tx[j], tx[j]}, wy[2] = {1.0 - ty[j], ty[j]},
+                 wz[2] = {1.0 - tz[j], tz[j]};
+    double wt = 0.0;
+    for (int az = 0; az < 2; ++az)
+      for (int ay = 0; ay < 2; ++ay)
+        for (int ax = 0; ax < 2; ++ax) {
+          const double q = std::max(0.0, h2 - (x2[ax] + y2[ay] + z2[az]));
+          wt += (wx[ax] * wy[ay] * wz[az]) * (q * (q * q + ka * q + kb));
+        }
+    const double ws = wet[j] * wt;
+    w_sum += vol[j] * wt;
+    px += ws * (rx[j] - xi);
+    py += ws * (ry[j] - yi);
+    pz += ws * (rz[j] - zi);
+  }
+  WetSums share;
+  share.weight = w_sum;
+  share.pull = Vec3(px, py, pz);
+  return share;
+}
+
+/// Splats every particle onto the 8 nodes of its cell: add(j, node, kx, ky, kz, t) with the
+/// trilinear weight t. Each thread owns a slab of node layers kz and scans all particles in
+/// order, adding only to its own nodes: every node receives its additions in particle order,
+/// as in a serial loop, so the lattice is bit-identical for any thread count.
+template <typename Add>
+void splat(const Lattice& L, const CohesionNodeGrid& g, int n, int threads, Add add) {
+#pragma omp parallel num_threads(threads)
+  {
+#ifdef _OPENMP
+    const int64_t t = omp_get_thread_num(), team = omp_get_num_threads();
+#else
+    const int64_t t = 0, team = 1;
+#endif
+    const int64_t z_lo = L.nz * t / team, z_hi = L.nz * (t + 1) / team;
+    for (int j = 0; j < n; ++j) {
+      const int64_t cz = static_cast<int64_t>(g.kz[j]);
+      if (cz + 1 < z_lo || cz >= z_hi) continue;
+      const int64_t cx = static_cast<int64_t>(g.kx[j]), cy = static_cast<int64_t>(g.ky[j]);
+      for (int az = 0; az < 2; ++az) {
+        const int64_t kz = cz + az;
+        if (kz < z_lo || kz >= z_hi) continue;
+        const double wz = az ? g.tz[j] : 1.0 - g.tz[j];
+        for (int ay = 0; ay < 2; ++ay) {
+          const double wy = ay ? g.ty[j] : 1.0 - g.ty[j];
+          for (int ax = 0; ax < 2; ++ax) {
+            const int64_t kx = cx + ax, ky = cy + ay;
+            add(j, L.index(kx, ky, kz), kx, ky, kz, (ax ? g.tx[j] : 1.0 - g.tx[j]) * wy * wz);
+          }
+        }
+      }
+    }
+  }
+}
+
+/// The single-precision copy of a node array (the first `nodes` entries).
+void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t nodes, int threads) {
+  const double* __restrict a = from.data();
+  float* __restrict b = to->data();
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (int64_t k = 0; k < nodes; ++k) b[k] = static_cast<float>(a[k]);
 }
 
 void zero(std::vector<double>* v, int64_t nodes, int threads) {
   double* a = v->data();
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int64_t k = 0; k < nodes; ++k) a[k] = 0.0;
+}
+
+}  // namespace
+
+namespace {
+
+/// Below this ratio of other-strand to own-strand weight the float gather is redone in double.
+constexpr double kSingleGuard = 1e-3;
+
+template <int kCells>
+int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const Lattice& L,
+                      int64_t nodes, HairState* state, int threads) {
+  CohesionNodeGrid& g = state->cohesion_grid;
+  const Vec3List& p = state->position;
+  const int n = model.particleCount();
+  const double h = cfg.radius_m, h2 = h * h;
+  // Every particle's position on the lattice, cell and trilinear fractions, once: the splats
+  // and the own-strand shares use them.
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (int j = 0; j < n; ++j) {
+    const Vec3 r = p[j] - L.origin;
+    const double fx = r.x() * L.inv_c, fy = r.y() * L.inv_c, fz = r.z() * L.inv_c;
+    g.rx[j] = r.x();
+    g.ry[j] = r.y();
+    g.rz[j] = r.z();
+    g.kx[j] = std::floor(fx);
+    g.ky[j] = std::floor(fy);
+    g.kz[j] = std::floor(fz);
+    g.tx[j] = fx - g.kx[j];
+    g.ty[j] = fy - g.ky[j];
+    g.tz[j] = fz - g.kz[j];
+  }
+
+  // Pass 1: mass to the nodes, density and volume of every particle.
+  zero(&g.scalar, nodes, threads);
+  splat(L, g, n, threads, [&](int j, int64_t node, int64_t, int64_t, int64_t, double t) {
+    g.scalar[node] += t * model.mass_kg[j];
+  });
+  const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
+  const bool single = cfg.grid_single_precision;
+  if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
+  for (int i = 0; i < n; ++i) {
+    const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
+    const double rho = single ? gatherScalar<kCells>(L, g.scalar_f.data(), ri, h2)
+                              : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
+    state->density[i] = norm * rho;
+    g.volume[i] = model.mass_kg[i] / state->density[i];
+  }
+
+  // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
+  for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
+    zero(v, nodes, threads);
+  for (int j = 0; j < n; ++j) g.wet_share[j] = g.volume[j] * state->saturation[j];
+  splat(L, g, n, threads, [&](int j, int64_t node, int64_t kx, int64_t ky, int64_t kz, double t) {
+    g.scalar[node] += t * g.volume[j];
+    const double vs = g.wet_share[j];
+    if (vs == 0.0) return;
+    const double tvs = t * vs;
+    g.wet_volume[node] += tvs;
+    g.qx[node] += tvs * (g.rx[j] - double(kx) * L.c);
+    g.qy[node] += tvs * (g.ry[j] - double(ky) * L.c);
+    g.qz[node] += tvs * (g.rz[j] - double(kz) * L.c);
+  });
+
+  const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
+                             g.qz.data()};
+  if (single) {
+    toSingle(g.scalar, &g.scalar_f, nodes, threads);
+    toSingle(g.wet_volume, &g.wet_volume_f, nodes, threads);
+    toSingle(g.qx, &g.qx_f, nodes, threads);
+    toSingle(g.qy, &g.qy_f, nodes, threads);
+    toSingle(g.qz, &g.qz_f, nodes, threads);
+  }
+  const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
+                              g.qy_f.data(), g.qz_f.data()};
+  int clumped = 0;
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : clumped)
+  for (int i = 0; i < n; ++i) {
+    if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
+    // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
+    const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
+    WetSums all = single ? gatherWet<kCells>(L, wet_f, ri, h2) : gatherWet<kCells>(L, wet, ri, h2);
+    // The own strand (particle i included) through the same functional, subtracted.
+    const int s = static_cast<int>(state->grid.strand_of[i]);
+    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+    const WetSums own = ownStrandShare(L, g, begin, end, i, h2);
+    // Float round-off in the all-strand sums is ~1e-6 of them: where the other strands' share is
+    // below 1e-3 of the own strand's it would be a large part of the difference; gather again in
+    // double there.
+    if (single && !(all.weight - own.weight > kSingleGuard * own.weight))
+      all = gatherWet<kCells>(L, wet, ri, h2);
+    double weight_sum = all.weight - own.weight;
+    // Round-off of the cancellation: no other strand within reach.
+    if (!(weight_sum > 1e-9 * own.weight)) continue;
+    const Vec3 pull = all.pull - own.pull;
+    if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
+    state->wet_position[i] = p[i] + (cfg.tightness / weight_sum) * pull;
+    ++clumped;
+  }
+  return clumped;
 }
 
 }  // namespace
@@ -185,94 +435,44 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   L.ny = static_cast<int64_t>(std::floor(span.y())) + margin + 2;
   L.nz = static_cast<int64_t>(std::floor(span.z())) + margin + 2;
   const int64_t nodes = L.nx * L.ny * L.nz;
-  if (nodes > static_cast<int64_t>(g.scalar.size())) return -1;
+  // The arrays carry kCohesionGridPadding nodes past the lattice for the last row's lanes.
+  if (nodes + static_cast<int64_t>(kCohesionGridPadding) > static_cast<int64_t>(g.scalar.size()))
+    return -1;
 
-  // Pass 1: mass to the nodes, density and volume of every particle.
-  zero(&g.scalar, nodes, threads);
-  for (int j = 0; j < n; ++j) {
-    const double m = model.mass_kg[j];
-    forEachCorner(L, p[j] - L.origin, [&](int64_t node, int64_t, int64_t, int64_t, double t) {
-      g.scalar[node] += t * m;
-    });
+  switch (cfg.grid_cells_per_radius) {  // validated to [2, 16]
+    case 2:
+      return evaluateOnLattice<2>(model, cfg, L, nodes, state, threads);
+    case 3:
+      return evaluateOnLattice<3>(model, cfg, L, nodes, state, threads);
+    case 4:
+      return evaluateOnLattice<4>(model, cfg, L, nodes, state, threads);
+    case 5:
+      return evaluateOnLattice<5>(model, cfg, L, nodes, state, threads);
+    case 6:
+      return evaluateOnLattice<6>(model, cfg, L, nodes, state, threads);
+    case 7:
+      return evaluateOnLattice<7>(model, cfg, L, nodes, state, threads);
+    case 8:
+      return evaluateOnLattice<8>(model, cfg, L, nodes, state, threads);
+    case 9:
+      return evaluateOnLattice<9>(model, cfg, L, nodes, state, threads);
+    case 10:
+      return evaluateOnLattice<10>(model, cfg, L, nodes, state, threads);
+    case 11:
+      return evaluateOnLattice<11>(model, cfg, L, nodes, state, threads);
+    case 12:
+      return evaluateOnLattice<12>(model, cfg, L, nodes, state, threads);
+    case 13:
+      return evaluateOnLattice<13>(model, cfg, L, nodes, state, threads);
+    case 14:
+      return evaluateOnLattice<14>(model, cfg, L, nodes, state, threads);
+    case 15:
+      return evaluateOnLattice<15>(model, cfg, L, nodes, state, threads);
+    case 16:
+      return evaluateOnLattice<16>(model, cfg, L, nodes, state, threads);
+    default:
+      return -1;
   }
-  const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
-  for (int i = 0; i < n; ++i) {
-    state->density[i] = norm * gatherScalar(L, g.scalar.data(), p[i] - L.origin, h);
-    g.volume[i] = model.mass_kg[i] / state->density[i];
-  }
-
-  // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
-  for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
-    zero(v, nodes, threads);
-  for (int j = 0; j < n; ++j) {
-    const double v = g.volume[j], vs = v * state->saturation[j];
-    const Vec3 r = p[j] - L.origin;
-    forEachCorner(L, r, [&](int64_t node, int64_t kx, int64_t ky, int64_t kz, double t) {
-      g.scalar[node] += t * v;
-      if (vs == 0.0) return;
-      const double tvs = t * vs;
-      g.wet_volume[node] += tvs;
-      g.qx[node] += tvs * (r.x() - double(kx) * L.c);
-      g.qy[node] += tvs * (r.y() - double(ky) * L.c);
-      g.qz[node] += tvs * (r.z() - double(kz) * L.c);
-    });
-  }
-
-  const double* __restrict gv = g.scalar.data();
-  const double* __restrict gs = g.wet_volume.data();
-  const double* __restrict gx = g.qx.data();
-  const double* __restrict gy = g.qy.data();
-  const double* __restrict gz = g.qz.data();
-  // Own-strand particles farther than this from p_i have no node within h.
-  const double own_reach = h + std::sqrt(3.0) * L.c, own_reach2 = own_reach * own_reach;
-  int clumped = 0;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : clumped)
-  for (int i = 0; i < n; ++i) {
-    if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
-    const Vec3 ri = p[i] - L.origin;
-    // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
-    double w_all = 0.0, px = 0.0, py = 0.0, pz = 0.0;
-    forEachRowWithin(L, ri, h, [&](int64_t base, int64_t kx0, double dy, double dz, double r2yz) {
-      double w_sum = 0.0, ax = 0.0, ay = 0.0, az = 0.0, s_sum = 0.0;
-      for (int64_t kx = kx0; kx < kx0 + 2 * L.cells; ++kx) {
-        const int64_t k = base + kx;
-        const double dx = double(kx) * L.c - ri.x();
-        const double q = std::max(0.0, h2 - (dx * dx + r2yz));
-        const double w = L.kernel(q);
-        const double ws = w * gs[k];
-        w_sum += w * gv[k];
-        s_sum += ws;
-        ax += w * gx[k] + ws * dx;
-        ay += w * gy[k];
-        az += w * gz[k];
-      }
-      w_all += w_sum;
-      px += ax;
-      py += ay + s_sum * dy;
-      pz += az + s_sum * dz;
-    });
-    // The own strand (particle i included) through the same functional, subtracted.
-    const int s = static_cast<int>(state->grid.strand_of[i]);
-    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
-    double w_own = 0.0;
-    Vec3 pull_own = Vec3::Zero();
-    for (int j = begin; j < end; ++j) {
-      const Vec3 d = p[j] - p[i];
-      if (d.squaredNorm() >= own_reach2) continue;
-      const double wt = interpolatedKernel(L, ri, p[j] - L.origin, h2);
-      w_own += g.volume[j] * wt;
-      pull_own += (g.volume[j] * state->saturation[j] * wt) * d;
-    }
-    double weight_sum = w_all - w_own;
-    // Round-off of the cancellation: no other strand within reach.
-    if (!(weight_sum > 1e-9 * w_own)) continue;
-    const Vec3 pull = Vec3(px, py, pz) - pull_own;
-    if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
-    state->wet_position[i] = p[i] + (cfg.tightness / weight_sum) * pull;
-    ++clumped;
-  }
-  return clumped;
 }
 
 }  // namespace wet_curly_hair

@@ -1,5 +1,6 @@
 #include "wet_curly_hair/core/state.h"
 
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
 
 namespace wet_curly_hair {
@@ -39,8 +40,13 @@ void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_off
 }
 
 void CohesionNodeGrid::resize(size_t nodes, int particles) {
-  for (std::vector<double>* v : {&scalar, &wet_volume, &qx, &qy, &qz}) v->assign(nodes, 0.0);
-  volume.assign(nodes > 0 ? particles : 0, 0.0);
+  const size_t padded = nodes > 0 ? nodes + kCohesionGridPadding : 0;
+  for (std::vector<double>* v : {&scalar, &wet_volume, &qx, &qy, &qz}) v->assign(padded, 0.0);
+  for (std::vector<float>* v : {&scalar_f, &wet_volume_f, &qx_f, &qy_f, &qz_f})
+    v->assign(padded, 0.0f);
+  const size_t per_particle = nodes > 0 ? static_cast<size_t>(particles) : 0;
+  for (std::vector<double>* v : {&volume, &wet_share, &rx, &ry, &rz, &kx, &ky, &kz, &tx, &ty, &tz})
+    v->assign(per_particle, 0.0);
 }
 
 void resetState(const HairModel& model, const Pose& head_pose, const Twist& head_twist,

@@ -155,6 +155,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
       "exact or grid (lattice approximation, README \"Cohesion evaluation\")", true);
   i("solver.cohesion.grid_cells_per_radius", &c.cohesion.grid_cells_per_radius,
     "grid evaluation: lattice nodes per kernel radius", true);
+  b("solver.cohesion.grid_single_precision", &c.cohesion.grid_single_precision,
+    "grid evaluation: gathers in float, double where the cancellation needs it", false);
   b("solver.adhesion.enabled", &c.adhesion.enabled, "adhesion of wet hair to obstacles", false);
   d("solver.adhesion.peak_acceleration_m_s2", &c.adhesion.peak_acceleration_m_s2,
     "peak adhesion acceleration at saturation 1, m/s^2", false);

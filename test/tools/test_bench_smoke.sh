@@ -29,17 +29,22 @@ for r in rows:
     ok = ok and ref[r['scene']] < 0.1 * float(r['rms_error'])
 sys.exit(0 if ok else 1)
 PY"
-# The target scene: the reference converged below the error it measures, and the strand lanes
-# give the same error as one strand at a time (same dynamics, different loop).
-check "target rows: candidates stable, lanes and per-strand errors equal" "/usr/bin/python3 - <<PY
-import csv, sys
+# The target scene: the reference converged below the error it measures, the strand lanes
+# give the same error as one strand at a time (same dynamics, different loop), and the full
+# model's rows (exact and lattice cohesion) have output-position errors.
+check "target rows: candidates stable, lanes and per-strand errors equal, full-model errors" "/usr/bin/python3 - <<PY
+import csv, math, sys
 rows = list(csv.DictReader(open('$out/b/target.csv')))
 ref = [r for r in rows if r['integrator'] == 'reference_check']
-runs = [r for r in rows if r['integrator'] != 'reference_check']
-ok = len(ref) == 1 and len(runs) == 4 and all(r['stable'] == '1' for r in runs)
-err = [float(r['rms_error']) for r in runs if r['rms_error']]
+ref_out = [r for r in rows if r['integrator'] == 'reference_check_output']
+runs = [r for r in rows if not r['integrator'].startswith('reference_check')]
+ok = len(ref) == 1 and len(ref_out) == 1 and len(runs) == 4 and all(r['stable'] == '1' for r in runs)
+err = [float(r['rms_error']) for r in runs if r['cohesion'] == 'off']
 ok = ok and len(err) == 2 and abs(err[0] - err[1]) <= 1e-6 * err[0] + 1e-12
 ok = ok and float(ref[0]['rms_error']) < 0.1 * err[0]
+full = [r for r in runs if r['cohesion'] != 'off']
+ok = ok and sorted(r['cohesion'] for r in full) == ['exact', 'grid4']
+ok = ok and all(0 < float(r['rms_error']) <= float(r['max_error']) < 1 for r in full)
 sys.exit(0 if ok else 1)
 PY"
 check "scaling rows for 1 and 2 threads" \

@@ -11,8 +11,12 @@
 // the own strand's share is computed with the same functional from its particles (their 8 nodes
 // each) and subtracted, so it cancels up to round-off; a particle whose other-strand weight is
 // at most 1e-9 of its own strand's counts as isolated (p^w = p, A13).
-// Splatting is serial in particle order and each particle's gather writes only its own p^w: the
-// result is bit-identical for any thread count.
+// Splatting runs in slabs of node layers, one per thread, each adding in particle order (so every
+// node sums in the same order as a serial loop), and each particle's gather writes only its own
+// p^w: the result is bit-identical for any thread count. With grid_single_precision the gathers
+// read float copies of the node sums (8 lanes per AVX2 register instead of 4 doubles) and the
+// particles where the own-strand cancellation would expose float round-off (other-strand weight
+// below 1e-3 of the own strand's) are gathered again in double.
 #pragma once
 
 #include <cstddef>
@@ -26,6 +30,10 @@ namespace wet_curly_hair {
 /// Largest lattice preallocated (nodes; 5 doubles each): beyond it the grid evaluation is not
 /// allocated and every step falls back to exact (counted in WarningStats).
 constexpr size_t kMaxCohesionGridNodes = size_t{1} << 23;
+
+/// Nodes allocated past the lattice: a row is read in vectors of 8 lanes, the lanes past its end
+/// weighted 0.
+constexpr size_t kCohesionGridPadding = 8;
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
 /// strand's (strain-limited) length of its root, and the roots within their rest bounding

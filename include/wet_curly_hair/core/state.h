@@ -73,7 +73,14 @@ struct CohesionNodeGrid {
   std::vector<double> scalar;      ///< pass 1: splatted mass; pass 2: splatted volume V.
   std::vector<double> wet_volume;  ///< pass 2: splatted V sigma.
   std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - node).
-  std::vector<double> volume;      ///< per particle: V = m / rho from the lattice density.
+  /// Single-precision copies of the five node arrays above, read by the float gathers.
+  std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
+  // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
+  std::vector<double> volume;      ///< V = m / rho from the lattice density.
+  std::vector<double> wet_share;   ///< V sigma.
+  std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
+  std::vector<double> kx, ky, kz;  ///< lowest node of the particle's cell (integers).
+  std::vector<double> tx, ty, tz;  ///< trilinear fractions in the cell, [0, 1).
   void resize(size_t nodes, int particles);
 };
 
