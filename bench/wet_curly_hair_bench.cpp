@@ -680,39 +680,49 @@ int main(int argc, char** argv) {
     const int strands = opt.quick ? 6 : 100;
     // 3 s: 1 s of the dry implicit scene took 35 ms of wall time, too short to tell 5 % apart.
     const double seconds = opt.quick ? 0.1 : 3.0;
+    // The variants run in turn within each repeat, and every ratio is the median over the
+    // repeats of the ratio within one repeat: slow drifts of the shared machine (which moved
+    // whole-run medians by several percent between variants run one after another) cancel.
+    const int repeats = opt.quick ? opt.repeats : std::max(opt.repeats, 9);
     for (const Setting& setting : settings) {
-      std::map<std::string, double> cost;
+      std::map<std::string, io::SceneConfig> scenes;
       for (const Variant& v : variants) {
         BenchScene b = base;
         b.overrides = {{"saturation.root", v.saturation}, {"saturation.tip", v.saturation}};
         if (v.far_obstacle) b.overrides.push_back({"obstacles", "[\"sphere:x=5,y=0,z=0,r=0.5\"]"});
-        io::SceneConfig scene;
-        if (!makeScene(b, strands, seconds, &scene, &why)) {
+        if (!makeScene(b, strands, seconds, &scenes[v.name], &why)) {
           std::fprintf(stderr, "wet_curly_hair_bench: gating: %s\n", why.c_str());
           return 2;
         }
-        std::vector<double> walls;
-        RunResult run;
-        for (int r = 0; r < opt.repeats; ++r) {
-          if (!runOnce(scene, setting, opt.threads, false, &run, &why)) {
+      }
+      std::map<std::string, std::vector<double>> walls;
+      for (int r = 0; r < repeats; ++r) {
+        for (const Variant& v : variants) {
+          RunResult run;
+          if (!runOnce(scenes[v.name], setting, opt.threads, false, &run, &why)) {
             std::fprintf(stderr, "wet_curly_hair_bench: gating: %s\n", why.c_str());
             return 2;
           }
-          walls.push_back(run.summary.wall_s / run.summary.sim_s);
+          walls[v.name].push_back(run.summary.wall_s / run.summary.sim_s);
         }
-        cost[v.name] = median(walls);
       }
+      auto ratio = [&](const std::string& a, const std::string& b) {
+        std::vector<double> q;
+        for (int r = 0; r < repeats; ++r) q.push_back(walls[a][r] / walls[b][r]);
+        return median(q);
+      };
       for (const Variant& v : variants) {
         const std::string name = v.name;
         const bool wet = name.rfind("wet", 0) == 0;
         const std::string wet_twin = wet ? name : "wet" + name.substr(3);
         const std::string no_obstacle = v.far_obstacle ? (wet ? "wet" : "dry") : name;
-        csv << setting.integrator << "," << name << "," << fmt(cost[name]) << ","
-            << fmt(cost[name] / cost[wet_twin]) << "," << fmt(cost[name] / cost[no_obstacle])
-            << "," << opt.repeats << "\n";
+        const double cost = median(walls[name]);
+        csv << setting.integrator << "," << name << "," << fmt(cost) << ","
+            << fmt(ratio(name, wet_twin)) << "," << fmt(ratio(name, no_obstacle)) << ","
+            << repeats << "\n";
         std::printf("gating %-15s %-17s %8.4f s/s  vs wet %.3f  vs no obstacle %.3f\n",
-                    setting.integrator.c_str(), name.c_str(), cost[name],
-                    cost[name] / cost[wet_twin], cost[name] / cost[no_obstacle]);
+                    setting.integrator.c_str(), name.c_str(), cost, ratio(name, wet_twin),
+                    ratio(name, no_obstacle));
       }
     }
     all_ok = writeFile(opt.out + "/gating.csv", csv.str()) && all_ok;
