@@ -654,9 +654,9 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     }
   } else {
     // Strands couple only through per-step outputs: each strand runs all its substeps at once,
-    // while its particles stay in cache; strands are shared among the threads. With the implicit
-    // methods, blocks of detail::kStrandLanes strands of equal size run in SIMD lanes (the blocks
-    // are fixed by strand index, so the result does not depend on the thread count).
+    // while its particles stay in cache; strands are shared among the threads. Blocks of
+    // detail::kStrandLanes strands of equal size run in SIMD lanes (the blocks are fixed by strand
+    // index, so the result does not depend on the thread count).
     auto advanceStrand = [&](int s, StepStats& ts, StrandScratch* scratch) {
       const StrandFlags flags = strandFlags(model, config, in_, s, *state);
       ts.wet_strands += flags.wet;
@@ -668,7 +668,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
     };
-    const bool lanes = config.integrator.strand_lanes && integratorTheta(config.integrator) > 0.0;
+    const bool lanes = config.integrator.strand_lanes;
     if (lanes) {
       constexpr int kLanes = detail::kStrandLanes;
       const int blocks = (strands + kLanes - 1) / kLanes;

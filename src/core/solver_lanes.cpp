@@ -1,9 +1,9 @@
-// The implicit substep on a block of kStrandLanes strands at once, one strand per SIMD lane
-// (issue 6, part 4). The recurrences of a strand run root to tip (IIR smoothing, frame transport,
-// the block-Thomas solve, the strain limit), so they cannot be vectorised along the strand; across
-// strands they are the same operations on independent data. The block's particles are gathered
-// into a structure of arrays once per step, stay in cache through all its substeps (strands
-// couple only through per-step outputs) and are scattered back at the end.
+// The substep (explicit or implicit) on a block of kStrandLanes strands at once, one strand per
+// SIMD lane (issue 6, part 4). The recurrences of a strand run root to tip (IIR smoothing, frame
+// transport, the block-Thomas solve, the strain limit), so they cannot be vectorised along the
+// strand; across strands they are the same operations on independent data. The block's particles
+// are gathered into a structure of arrays once per step, stay in cache through all its substeps
+// (strands couple only through per-step outputs) and are scattered back at the end.
 //
 // Every stage mirrors substepStrand() in solver.cpp operation for operation (the comments there
 // give the equations); the rare branches (a degenerate frame, a half-turn rotation, a particle
@@ -291,6 +291,33 @@ inline void collideLanes(M4 contact, D4 d, const V3L& n, double delta, double mu
 
 inline uint64_t laneCount(M4 m, int l) { return m[l] != 0 ? 1 : 0; }
 
+// The damping forces of eqs. (1), (4), (5) and the velocity clamp (springs.h), lane by lane.
+inline V3L stretchDampingLanes(const V3L& edge, const V3L& dv, double c_s) {
+  const D4 len2 = dot(edge, edge);
+  return select(len2 < splat(kDirectionEpsilon * kDirectionEpsilon), zero3(),
+                (splat(c_s) * dot(dv, edge) / len2) * edge);
+}
+inline V3L bendDampingLanes(const V3L& edge, const V3L& dv, double c_b) {
+  const D4 len2 = dot(edge, edge);
+  return select(len2 < splat(kDirectionEpsilon * kDirectionEpsilon), splat(c_b) * dv,
+                splat(c_b) * (dv - (dot(dv, edge) / len2) * edge));
+}
+inline V3L coreDampingLanes(const V3L& b, const V3L& nu, double c_c) {
+  const D4 len2 = dot(b, b);
+  return select(len2 < splat(1e-18), zero3(), (splat(c_c) * dot(nu, b) / len2) * b);
+}
+inline V3L clampAxialLanes(const V3L& edge, const V3L& v_root_side, const V3L& v_tip_side,
+                           D4 max_axial_speed) {
+  const D4 len = vsqrt(dot(edge, edge));
+  const V3L e = edge / len;
+  const D4 a = dot(v_tip_side - v_root_side, e);
+  const M4 short_edge = len < splat(kDirectionEpsilon);
+  const M4 above = ~short_edge & (a > max_axial_speed);
+  const M4 below = ~short_edge & ~above & (a < -max_axial_speed);
+  V3L r = select(above, v_tip_side - (a - max_axial_speed) * e, v_tip_side);
+  return select(below, v_tip_side - (a + max_axial_speed) * e, r);
+}
+
 /// Lanes whose obstacle distance must be evaluated at x. A signed distance changes by at most
 /// L |dx| when the point moves by dx: L = 1 for the analytic shapes (and the field's extension
 /// outside its box), L <= sqrt(3) for the trilinear field (each partial derivative is a weighted
@@ -318,6 +345,9 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
   }
   LaneArrays a = carve(scratch);
   const double theta = integratorTheta(config.integrator);
+  const bool implicit = theta > 0.0;
+  const int damping_passes = implicit ? 0 : dampingPassCount(model, config, h);
+  const double clamp_rate = config.stretch.strain_rate_limit_per_substep / h;
 
   // Per-lane stage switches, the same as the scalar path's per strand.
   const Obstacles* obstacles = inputs.obstacles;
@@ -499,64 +529,93 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
       laps.lap(kStageAdhesion, evaluated);
     }
 
-    // 4-5 implicit: the theta method of substepStrand, the block-tridiagonal solve per lane.
-    if (cc > 0.0) smoothDifferences(a.v, n, beta_core, a.nu);
-    for (int i = 0; i < edges; ++i) {
-      const V3L e = a.p[i + 1] - a.p[i];
-      const V3L dv = a.v[i + 1] - a.v[i];
-      // axialSpringJacobian for the stretch and the core springs.
-      const D4 len = vsqrt(dot(e, e));
-      const M4 stretch_degenerate = len < splat(kDirectionEpsilon);
-      const V3L u = select(stretch_degenerate, zero3(), e / len);
-      const D4 stretch_iso = stretch_degenerate
-                                 ? splat(0.0)
-                                 : splat(ks) * vmax(splat(0.0), splat(1.0) - a.rest[i] / len);
-      const D4 stretch_axial = stretch_degenerate ? splat(0.0) : splat(ks) - stretch_iso;
-      const D4 core_len = vsqrt(dot(a.b[i], a.b[i]));
-      const M4 core_degenerate = core_len < splat(kDirectionEpsilon);
-      const V3L w = select(core_degenerate, zero3(), a.b[i] / core_len);
-      const D4 kcl = splat(kc) * local_core;
-      const D4 core_iso = core_degenerate
-                              ? splat(0.0)
-                              : kcl * vmax(splat(0.0), splat(1.0) - a.core_rest[i] / core_len);
-      const D4 core_axial = core_degenerate ? splat(0.0) : kcl - core_iso;
-      const D4 curl =
-          kw > splat(0.0) ? kw * splat(0.5) * (a.sigma[i] + a.sigma[i + 1]) : splat(0.0);
-      const D4 has_axis = dot(u, u) > splat(0.0) ? splat(1.0) : splat(0.0);
-      const D4 tth = splat(th);
-      const D4 alpha = tth * (splat(cb) + tth * (stretch_iso + core_iso + splat(kb) + curl));
-      const D4 beta = tth * (has_axis * splat(cs - cb) + tth * stretch_axial);
-      const D4 gamma = tth * (splat(cc) * local_core + tth * core_axial);
-      a.block[i] = isotropicPlusDyads(alpha, beta, u, gamma, w);
-      V3L fe = splat(-cb) * cross(omega, e);
-      if (cc > 0.0) {
-        const D4 len2 = dot(a.b[i], a.b[i]);
-        const V3L core_damping = select(len2 < splat(1e-18), zero3(),
-                                        (splat(cc) * dot(a.nu[i], a.b[i]) / len2) * a.b[i]);
-        fe += core_damping - (splat(cc) * local_core * dot(w, dv)) * w;
+    if (!implicit) {
+      // 4. Velocity update (semi-implicit Euler), roots excluded; 5. the damping passes.
+      for (int i = 1; i < n; ++i) a.v[i] += (splat(h) * a.inv_m[i]) * a.f[i];
+      const D4 tau = splat(h / damping_passes);
+      for (int pass = 0; pass < damping_passes; ++pass) {
+        if (cc > 0.0) smoothDifferences(a.v, n, beta_core, a.nu);
+        for (int i = 0; i < n; ++i) a.f[i] = zero3();
+        for (int i = 0; i < edges; ++i) {
+          const V3L e = a.p[i + 1] - a.p[i];
+          const V3L dv = a.v[i + 1] - a.v[i];
+          V3L fd = stretchDampingLanes(e, dv, cs) + bendDampingLanes(e, dv - cross(omega, e), cb);
+          if (cc > 0.0) fd += coreDampingLanes(a.b[i], a.nu[i], cc);
+          a.f[i] += fd;
+          a.f[i + 1] -= fd;
+        }
+        for (int i = 1; i < n; ++i) a.v[i] += (tau * a.inv_m[i]) * a.f[i];
       }
-      a.f[i] += fe;
-      a.f[i + 1] -= fe;
-    }
-    for (int i = 0; i < n; ++i) a.v_start[i] = a.v[i];
-    for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + splat(th) * a.f[i];
-    a.rhs[1] += a.block[0] * a.v[0];
-    for (int i = 1; i < n; ++i) {
-      M3L pivot = a.block[i - 1];
-      for (int r = 0; r < 3; ++r) pivot.m[r][r] += a.m[i];
-      if (i < edges) pivot = pivot + a.block[i];
-      if (i > 1) {
-        const M3L w = a.block[i - 1] * a.pivot_inverse[i - 1];
-        pivot = pivot - w * a.block[i - 1];
-        a.rhs[i] += w * a.rhs[i - 1];
+      // Velocity clamp root -> tip (Iben §2.2a), explicit only (substepStrand says why).
+      for (int i = 0; i < edges; ++i) {
+        const V3L vnew =
+            clampAxialLanes(a.p[i + 1] - a.p[i], a.v[i], a.v[i + 1], splat(clamp_rate) * a.rest[i]);
+        const M4 changed =
+            (vnew.x != a.v[i + 1].x) | (vnew.y != a.v[i + 1].y) | (vnew.z != a.v[i + 1].z);
+        if (!any(changed)) continue;
+        a.v[i + 1] = vnew;
+        for (int l = 0; l < kStrandLanes; ++l) stats->velocity_clamps += laneCount(changed, l);
       }
-      a.pivot_inverse[i] = inverse(pivot);
+    } else {
+      // 4-5 implicit: the theta method of substepStrand, the block-tridiagonal solve per lane.
+      if (cc > 0.0) smoothDifferences(a.v, n, beta_core, a.nu);
+      for (int i = 0; i < edges; ++i) {
+        const V3L e = a.p[i + 1] - a.p[i];
+        const V3L dv = a.v[i + 1] - a.v[i];
+        // axialSpringJacobian for the stretch and the core springs.
+        const D4 len = vsqrt(dot(e, e));
+        const M4 stretch_degenerate = len < splat(kDirectionEpsilon);
+        const V3L u = select(stretch_degenerate, zero3(), e / len);
+        const D4 stretch_iso = stretch_degenerate
+                                   ? splat(0.0)
+                                   : splat(ks) * vmax(splat(0.0), splat(1.0) - a.rest[i] / len);
+        const D4 stretch_axial = stretch_degenerate ? splat(0.0) : splat(ks) - stretch_iso;
+        const D4 core_len = vsqrt(dot(a.b[i], a.b[i]));
+        const M4 core_degenerate = core_len < splat(kDirectionEpsilon);
+        const V3L w = select(core_degenerate, zero3(), a.b[i] / core_len);
+        const D4 kcl = splat(kc) * local_core;
+        const D4 core_iso = core_degenerate
+                                ? splat(0.0)
+                                : kcl * vmax(splat(0.0), splat(1.0) - a.core_rest[i] / core_len);
+        const D4 core_axial = core_degenerate ? splat(0.0) : kcl - core_iso;
+        const D4 curl =
+            kw > splat(0.0) ? kw * splat(0.5) * (a.sigma[i] + a.sigma[i + 1]) : splat(0.0);
+        const D4 has_axis = dot(u, u) > splat(0.0) ? splat(1.0) : splat(0.0);
+        const D4 tth = splat(th);
+        const D4 alpha = tth * (splat(cb) + tth * (stretch_iso + core_iso + splat(kb) + curl));
+        const D4 beta = tth * (has_axis * splat(cs - cb) + tth * stretch_axial);
+        const D4 gamma = tth * (splat(cc) * local_core + tth * core_axial);
+        a.block[i] = isotropicPlusDyads(alpha, beta, u, gamma, w);
+        V3L fe = splat(-cb) * cross(omega, e);
+        if (cc > 0.0) {
+          const D4 len2 = dot(a.b[i], a.b[i]);
+          const V3L core_damping = select(len2 < splat(1e-18), zero3(),
+                                          (splat(cc) * dot(a.nu[i], a.b[i]) / len2) * a.b[i]);
+          fe += core_damping - (splat(cc) * local_core * dot(w, dv)) * w;
+        }
+        a.f[i] += fe;
+        a.f[i + 1] -= fe;
+      }
+      for (int i = 0; i < n; ++i) a.v_start[i] = a.v[i];
+      for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + splat(th) * a.f[i];
+      a.rhs[1] += a.block[0] * a.v[0];
+      for (int i = 1; i < n; ++i) {
+        M3L pivot = a.block[i - 1];
+        for (int r = 0; r < 3; ++r) pivot.m[r][r] += a.m[i];
+        if (i < edges) pivot = pivot + a.block[i];
+        if (i > 1) {
+          const M3L w = a.block[i - 1] * a.pivot_inverse[i - 1];
+          pivot = pivot - w * a.block[i - 1];
+          a.rhs[i] += w * a.rhs[i - 1];
+        }
+        a.pivot_inverse[i] = inverse(pivot);
+      }
+      a.v[n - 1] = a.pivot_inverse[n - 1] * a.rhs[n - 1];
+      for (int i = n - 2; i >= 1; --i)
+        a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
+      const D4 inv_theta = splat(1.0 / theta);
+      for (int i = 1; i < n; ++i) a.v[i] = a.v_start[i] + inv_theta * (a.v[i] - a.v_start[i]);
     }
-    a.v[n - 1] = a.pivot_inverse[n - 1] * a.rhs[n - 1];
-    for (int i = n - 2; i >= 1; --i)
-      a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
-    const D4 inv_theta = splat(1.0 / theta);
-    for (int i = 1; i < n; ++i) a.v[i] = a.v_start[i] + inv_theta * (a.v[i] - a.v_start[i]);
 
     // 6. Stiffness, eq. (13), on the lanes it acts on.
     if (any_stiffness) {
@@ -573,10 +632,14 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
         a.v[i] = select(stiffness_mask, changed, a.v[i]);
       }
     }
-    // 8. Positions with the theta-weighted velocity.
+    // 8. Positions: with the new velocity (explicit), the theta-weighted one (implicit).
     a.p[0] = root_next;
-    for (int i = 1; i < n; ++i)
-      a.p[i] += splat(h) * (splat(1.0 - theta) * a.v_start[i] + splat(theta) * a.v[i]);
+    if (!implicit) {
+      for (int i = 1; i < n; ++i) a.p[i] += splat(h) * a.v[i];
+    } else {
+      for (int i = 1; i < n; ++i)
+        a.p[i] += splat(h) * (splat(1.0 - theta) * a.v_start[i] + splat(theta) * a.v[i]);
+    }
     laps.lap(kStageIntegrate, uint64_t(n) * kStrandLanes);
 
     // 7. Head collision, every lane.

@@ -70,9 +70,9 @@ struct IntegratorConfig {
   /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
   /// couple only between steps, and every reduction is over integers or maxima in a fixed order.
   int threads = 1;
-  /// Implicit methods: advance strands four at a time, one per SIMD lane (a structure of arrays
-  /// per block of strands; the same operations as one strand at a time, equal to round-off).
-  /// false: one strand at a time, the reference path. The explicit method always runs per strand.
+  /// Advance strands four at a time, one per SIMD lane (a structure of arrays per block of
+  /// strands; the same operations as one strand at a time, equal to round-off), every
+  /// integrator. false: one strand at a time, the reference path.
   bool strand_lanes = true;
   /// A head that moves faster than this within a step (translation speed, m/s; or turns more than
   /// teleport_angle_rad) has jumped, not moved: the hair is carried rigidly by the jump before
