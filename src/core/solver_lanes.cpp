@@ -588,10 +588,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
         a.block[i] = isotropicPlusDyads(alpha, beta, u, gamma, w);
         V3L fe = splat(-cb) * cross(omega, e);
         if (cc > 0.0) {
-          const D4 len2 = dot(a.b[i], a.b[i]);
-          const V3L core_damping = select(len2 < splat(1e-18), zero3(),
-                                          (splat(cc) * dot(a.nu[i], a.b[i]) / len2) * a.b[i]);
-          fe += core_damping - (splat(cc) * local_core * dot(w, dv)) * w;
+          fe += coreDampingLanes(a.b[i], a.nu[i], cc) - (splat(cc) * local_core * dot(w, dv)) * w;
         }
         a.f[i] += fe;
         a.f[i + 1] -= fe;
