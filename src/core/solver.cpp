@@ -225,11 +225,11 @@ void updateCurlRotation(const HairModel& model, const CurlConfig& config, int st
   }
 }
 
-bool blockUniform(const HairModel& model, int first_strand) {
-  if (first_strand + kStrandLanes > model.strandCount()) return false;
+bool blockUniform(const HairModel& model, int first_strand, int width) {
+  if (first_strand + width > model.strandCount()) return false;
   const int n = model.strandSize(first_strand);
   if (n < 2) return false;
-  for (int l = 1; l < kStrandLanes; ++l)
+  for (int l = 1; l < width; ++l)
     if (model.strandSize(first_strand + l) != n) return false;
   return true;
 }
@@ -655,8 +655,8 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   } else {
     // Strands couple only through per-step outputs: each strand runs all its substeps at once,
     // while its particles stay in cache; strands are shared among the threads. Blocks of
-    // detail::kStrandLanes strands of equal size run in SIMD lanes (the blocks are fixed by strand
-    // index, so the result does not depend on the thread count).
+    // IntegratorConfig::laneWidth() strands of equal size run in SIMD lanes (the blocks are fixed
+    // by strand index, so the result does not depend on the thread count).
     auto advanceStrand = [&](int s, StepStats& ts, StrandScratch* scratch) {
       const StrandFlags flags = strandFlags(model, config, in_, s, *state);
       ts.wet_strands += flags.wet;
@@ -670,19 +670,19 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     };
     const bool lanes = config.integrator.strand_lanes;
     if (lanes) {
-      constexpr int kLanes = detail::kStrandLanes;
+      const int kLanes = config.integrator.laneWidth();
       const int blocks = (strands + kLanes - 1) / kLanes;
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 2)
       for (int blk = 0; blk < blocks; ++blk) {
         const int t = ompThreadIndex();
         StepStats& ts = per_thread[t];
         const int first = blk * kLanes;
-        if (!detail::blockUniform(model, first)) {
+        if (!detail::blockUniform(model, first, kLanes)) {
           for (int s = first; s < std::min(strands, first + kLanes); ++s)
             advanceStrand(s, ts, &state->scratch[t]);
           continue;
         }
-        StrandFlags flags[kLanes];
+        StrandFlags flags[detail::kMaxStrandLanes];
         for (int l = 0; l < kLanes; ++l) {
           flags[l] = strandFlags(model, config, in_, first + l, *state);
           ts.wet_strands += flags[l].wet;

@@ -77,16 +77,17 @@ uint64_t extraConstraintRounds(const HairModel& model, const SolverConfig& confi
                                const SubstepMotion& motion, const double* rest, double h,
                                uint64_t touched, uint64_t projected, Vec3* p, Vec3* v, int n);
 
-/// Strands advanced together, one per SIMD lane, by stepStrandBlock.
-constexpr int kStrandLanes = 4;
+/// The widest block of strands advanced together, one per SIMD lane, by stepStrandBlock.
+constexpr int kMaxStrandLanes = 16;
 
-/// True when strands first .. first + kStrandLanes - 1 exist and have the same particle count
-/// (at least 2), so that they can run as one block.
-bool blockUniform(const HairModel& model, int first_strand);
+/// True when strands first .. first + width - 1 exist and have the same particle count (at
+/// least 2), so that they can run as one block.
+bool blockUniform(const HairModel& model, int first_strand, int width);
 
-/// All nsub substeps of an implicit step for the block of kStrandLanes strands starting at
-/// first_strand (flags: one per lane), as substepStrand would advance each of them
-/// (solver_lanes.cpp). `scratch` is the thread's; returns the largest strain before limiting.
+/// All nsub substeps of a step for the block of IntegratorConfig::laneWidth() strands starting
+/// at first_strand (flags: one per lane), as substepStrand would advance each of them, in the
+/// configured lane layout (solver_lanes.cpp). `scratch` is the thread's; returns the largest
+/// strain before limiting.
 double stepStrandBlock(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
                        int first_strand, const StrandFlags* flags, int nsub, double h,
                        HairState* state, StrandScratch* scratch, StepStats* stats);

@@ -122,7 +122,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);
   d("solver.integrator.theta", &c.integrator.theta, "theta of method theta, [0.5, 1]", false);
   b("solver.integrator.strand_lanes", &c.integrator.strand_lanes,
-    "4 strands per SIMD block (false: one at a time)", false);
+    "strands in SIMD blocks (false: one at a time)", false);
+  str("solver.integrator.lane_layout", &c.integrator.lane_layout,
+      "arithmetic and strands per SIMD block: double4, double8, float8 or float16", false);
   i("solver.integrator.threads", &c.integrator.threads, "solver threads (results identical)",
     false);
   d("solver.integrator.teleport_speed_m_s", &c.integrator.teleport_speed_m_s,

@@ -70,10 +70,17 @@ struct IntegratorConfig {
   /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
   /// couple only between steps, and every reduction is over integers or maxima in a fixed order.
   int threads = 1;
-  /// Advance strands four at a time, one per SIMD lane (a structure of arrays per block of
-  /// strands; the same operations as one strand at a time, equal to round-off), every
-  /// integrator. false: one strand at a time, the reference path.
+  /// Advance strands in blocks, one per SIMD lane (a structure of arrays per block of strands;
+  /// the same operations as one strand at a time), every integrator. false: one strand at a
+  /// time, the reference path.
   bool strand_lanes = true;
+  /// The lanes' arithmetic and strands per block, one AVX or one AVX-512 register: "double4",
+  /// "double8" (equal to the one-strand path to round-off), "float8", "float16" (every operation
+  /// of a substep in float; the state stays double between steps, so float is rounded in and
+  /// out once per step). One key, so that any value set alone is valid.
+  std::string lane_layout = "double4";
+  bool laneFloat() const { return lane_layout == "float8" || lane_layout == "float16"; }
+  int laneWidth() const { return lane_layout == "float16" ? 16 : lane_layout == "double4" ? 4 : 8; }
   /// A head that moves faster than this within a step (translation speed, m/s; or turns more than
   /// teleport_angle_rad) has jumped, not moved: the hair is carried rigidly by the jump before
   /// the step and keeps its velocities relative to the head (a tracking glitch or a teleport must
