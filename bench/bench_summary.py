@@ -204,6 +204,24 @@ def target(out, t):
               "errors of the output positions p^w:\n")
 
 
+def lanes(out, rows_):
+    """Float or double: the target scene's dynamics in every lane layout, cost (and its ratio to
+    double4, median of the ratios within one repeat) against the error, in one run."""
+    if not rows_:
+        return
+    out.append("\n## Float or double: strand-lane layouts (target scene, dynamics alone, %s strands, "
+               "%s threads)\n" % (rows_[0]["strands"], rows_[0]["threads"]))
+    out.append("| integrator | substep, s | lane layout | cost, s/s | real-time factor "
+               "| cost / double4 | RMS error | max error | stable |")
+    out.append("|---|---|---|---|---|---|---|---|---|")
+    for r in rows_:
+        out.append("| %s | %s | %s | %s | %s | %s | %.3f %% | %.3f %% | %s |" % (
+            r["integrator"], fmt(float(r["substep_s"])), r["lane_layout"],
+            fmt(float(r["wall_s_per_sim_s"])), fmt(float(r["realtime_factor"])),
+            fmt(float(r["cost_vs_double4"])), 100 * float(r["rms_error"]),
+            100 * float(r["max_error"]), "yes" if r["stable"] == "1" else "no"))
+
+
 def gating(out, g):
     out.append("\n## Model only what the scene needs (100 strands, nodding)\n")
     out.append("| integrator | variant | cost, s/s | / wet | / same without the obstacle |")
@@ -227,6 +245,8 @@ def main():
         scaling(out, rows(os.path.join(d, "scaling.csv")), common)
     if os.path.exists(os.path.join(d, "target.csv")):
         target(out, rows(os.path.join(d, "target.csv")))
+    if os.path.exists(os.path.join(d, "lanes.csv")):
+        lanes(out, rows(os.path.join(d, "lanes.csv")))
     if os.path.exists(os.path.join(d, "gating.csv")):
         gating(out, rows(os.path.join(d, "gating.csv")))
     text = "\n".join(out) + "\n"

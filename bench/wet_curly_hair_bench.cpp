@@ -48,6 +48,8 @@ struct Setting {
   /// Implicit methods: strands in SIMD lanes (solver.integrator.strand_lanes); false: one strand
   /// at a time, the reference path (labelled "<integrator>_per_strand" in the scaling CSV).
   bool lanes = true;
+  /// solver.integrator.lane_layout; empty: the scene's (the default).
+  std::string layout;
   std::string label() const { return lanes ? integrator : integrator + "_per_strand"; }
 };
 
@@ -63,6 +65,7 @@ struct Options {
   bool gating = true;
   bool cohesion = true;
   bool target = true;  ///< the issue's headline scene: 1,000 strands, full wet model, obstacle
+  bool lanes = true;   ///< float or double: the target scene's dynamics in every lane layout
   std::vector<std::string> only_scenes;
   bool replot = false;  ///< only redraw the charts from the CSV files already in `out`
 };
@@ -129,6 +132,7 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   scene.solver.integrator.substep_s = setting.substep_s;
   scene.solver.integrator.threads = threads;
   scene.solver.integrator.strand_lanes = setting.lanes;
+  if (!setting.layout.empty()) scene.solver.integrator.lane_layout = setting.layout;
   if (!scene.solver.validate("solver.", why)) return false;
   io::RunOptions options;
   options.measure = false;
@@ -289,11 +293,43 @@ void plotScaling(const std::string& dir) {
     std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
 }
 
+/// Float or double: cost against error of the target scene's dynamics, one line per lane layout
+/// over the theta substeps, the explicit points apart.
+void plotLanes(const std::string& dir) {
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 1000,620 font 'sans,10'\n"
+     << "set output '" << dir << "/lanes.png'\n"
+     << "set termoption noenhanced\n"
+     << "set datafile separator ','\n"
+     << "set logscale xy\nset grid\nset key top right\n"
+     << "set title 'Strand lanes: float or double (1,000 strands x 32, wet, obstacle, 2 threads; "
+        "dynamics alone)'\n"
+     << "set xlabel 'wall s per simulated s'\nset ylabel 'RMS error / strand length'\n"
+     << "set arrow from graph 0, first 0.01 to graph 1, first 0.01 nohead dt 2 lc 'gray'\n"
+     << "plot ";
+  const char* layouts[] = {"double4", "double8", "float8", "float16"};
+  const char* colours[] = {"#1f77b4", "#17becf", "#d62728", "#ff7f0e"};
+  for (int k = 0; k < 4; ++k) {
+    gp << (k ? ", " : "") << "'" << dir
+       << "/lanes.csv' using (strcol(1) eq 'theta' && strcol(3) eq '" << layouts[k]
+       << "' ? $6 : NaN):9 with linespoints pt 7 lc rgb '" << colours[k] << "' title '"
+       << layouts[k] << " theta', '" << dir
+       << "/lanes.csv' using (strcol(1) eq 'explicit' && strcol(3) eq '" << layouts[k]
+       << "' ? $6 : NaN):9 with points pt 5 ps 1.5 lc rgb '" << colours[k] << "' title '"
+       << layouts[k] << " explicit'";
+  }
+  gp << "\n";
+  const std::string script = dir + "/lanes.gp";
+  writeFile(script, gp.str());
+  if (std::system(("gnuplot " + script).c_str()) != 0)
+    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+}
+
 const char* kUsage =
     "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
     "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
     "                            [--no-work-precision] [--no-gating]\n"
-    "                            [--no-cohesion] [--no-target] [--replot]\n";
+    "                            [--no-cohesion] [--no-target] [--no-lanes] [--replot]\n";
 
 }  // namespace
 
@@ -320,6 +356,8 @@ int main(int argc, char** argv) {
     else if (a == "--no-gating") opt.gating = false;
     else if (a == "--no-cohesion") opt.cohesion = false;
     else if (a == "--no-target") opt.target = false;
+    else if (a == "--no-lanes")
+      opt.lanes = false;
     else if (a == "--replot") opt.replot = true;
     else {
       std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
@@ -346,6 +384,8 @@ int main(int argc, char** argv) {
     for (const BenchScene& b : benchScenes()) names.push_back(b.name);
     plotWorkPrecision(opt.out, names);
     plotScaling(opt.out);
+    std::ifstream lanes_csv(opt.out + "/lanes.csv");
+    if (lanes_csv) plotLanes(opt.out);
     return 0;
   }
   mkdir(opt.out.c_str(), 0755);
@@ -516,7 +556,7 @@ int main(int argc, char** argv) {
     }
     all_ok = writeFile(opt.out + "/cohesion.csv", csv.str()) && all_ok;
   }
-  if (opt.target) {
+  if (opt.target || opt.lanes) {
     // The headline target: 1,000 strands x 32 particles, the full wet model (curl, eq. 13,
     // adhesion, the per-frame cohesion display pass of eq. 10) and an obstacle (obstacle_slide),
     // 2 threads, measured on that scene itself against a reference at a substep 16 times smaller
@@ -526,7 +566,7 @@ int main(int argc, char** argv) {
     // model at the fastest candidates: errors of the output positions p^w, which carry the
     // dynamics' error and the cohesion evaluation's (exact, or the lattice at 4, 3, 2 nodes per
     // radius in float, and at 4 in double).
-    const int strands = opt.quick ? 8 : 1000;
+    const int strands = opt.quick ? 16 : 1000;  // 16: one block of every lane layout
     const int threads = 2;
     const double seconds = opt.quick ? 0.1 : 1.0;
     const std::vector<Setting> candidates =
@@ -635,12 +675,67 @@ int main(int argc, char** argv) {
       return true;
     };
     for (const Setting& c : candidates) {
+      if (!opt.target) break;
       if (!measure(scene, c, "off", false)) {
         std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());
         return 2;
       }
     }
+    // Float or double (part 4): the dynamics in every lane layout against the same reference.
+    // The layouts run in turn within each repeat; every cost ratio is the median over the
+    // repeats of the ratio within one repeat.
+    if (opt.lanes) {
+      const std::vector<std::string> layouts = {"double4", "double8", "float8", "float16"};
+      const std::vector<Setting> lane_settings =
+          opt.quick
+              ? std::vector<Setting>{{"theta", 2e-3}}
+              : std::vector<Setting>{
+                    {"theta", 1e-3}, {"theta", 2e-3}, {"theta", 1.0 / 240}, {"explicit", 2e-4}};
+      std::ostringstream lanes;
+      lanes << "integrator,substep_s,lane_layout,strands,threads,wall_s_per_sim_s,"
+               "realtime_factor,cost_vs_double4,rms_error,max_error,stable,runs\n";
+      for (const Setting& base : lane_settings) {
+        std::map<std::string, std::vector<double>> walls;
+        std::map<std::string, Error> errors;
+        std::map<std::string, bool> stable_run;
+        for (int r = 0; r < opt.repeats; ++r) {
+          for (const std::string& layout : layouts) {
+            Setting setting = base;
+            setting.layout = layout;
+            RunResult run;
+            if (!runOnce(scene, setting, threads, r == 0, &run, &why)) {
+              std::fprintf(stderr, "wet_curly_hair_bench: lanes: %s\n", why.c_str());
+              return 2;
+            }
+            if (r == 0) {
+              errors[layout] = frameError(run.sim_frames, ref.sim_frames, length, horizon);
+              stable_run[layout] = stable(run.summary, scene.solver.stretch.strain_limit);
+            }
+            walls[layout].push_back(run.summary.wall_s / run.summary.sim_s);
+          }
+        }
+        for (const std::string& layout : layouts) {
+          std::vector<double> q;
+          for (int r = 0; r < opt.repeats; ++r) q.push_back(walls[layout][r] / walls["double4"][r]);
+          const double cost = median(walls[layout]);
+          const Error& e = errors[layout];
+          lanes << base.integrator << "," << fmt(base.substep_s) << "," << layout << "," << strands
+                << "," << threads << "," << fmt(cost) << "," << fmt(1.0 / cost) << ","
+                << fmt(median(q)) << "," << fmt(e.rms) << "," << fmt(e.max) << ","
+                << (stable_run[layout] ? 1 : 0) << "," << opt.repeats << "\n";
+          std::printf(
+              "lanes %-9s %-9.3g %-8s cost %7.4f s/s (RTF %.2f, %.3f of double4)  RMS %.3e  "
+              "max %.3e  %s\n",
+              base.integrator.c_str(), base.substep_s, layout.c_str(), cost, 1.0 / cost, median(q),
+              e.rms, e.max, stable_run[layout] ? "stable" : "UNSTABLE");
+          std::fflush(stdout);
+        }
+      }
+      all_ok = writeFile(opt.out + "/lanes.csv", lanes.str()) && all_ok;
+      if (haveGnuplot()) plotLanes(opt.out);
+    }
     for (const Setting& setting : full_settings) {
+      if (!opt.target) break;
       for (const Display& d : displays) {
         BenchScene with = target;
         with.overrides.push_back(
@@ -656,7 +751,7 @@ int main(int argc, char** argv) {
         }
       }
     }
-    all_ok = writeFile(opt.out + "/target.csv", csv.str()) && all_ok;
+    if (opt.target) all_ok = writeFile(opt.out + "/target.csv", csv.str()) && all_ok;
   }
   if (opt.gating) {
     // "Model only what the scene needs": the same nodding scene dry and fully wet, and with an

@@ -30,8 +30,8 @@ for r in rows:
 sys.exit(0 if ok else 1)
 PY"
 # The target scene: the reference converged below the error it measures, the strand lanes
-# give the same error as one strand at a time (same dynamics, different loop), and the full
-# model's rows (exact and lattice cohesion) have output-position errors.
+# (float16 by default) give the error of one strand at a time (same dynamics in double) within
+# 1 % of it, and the full model's rows (exact and lattice cohesion) have output-position errors.
 check "target rows: candidates stable, lanes and per-strand errors equal, full-model errors" "/usr/bin/python3 - <<PY
 import csv, math, sys
 rows = list(csv.DictReader(open('$out/b/target.csv')))
@@ -40,22 +40,34 @@ ref_out = [r for r in rows if r['integrator'] == 'reference_check_output']
 runs = [r for r in rows if not r['integrator'].startswith('reference_check')]
 ok = len(ref) == 1 and len(ref_out) == 1 and len(runs) == 4 and all(r['stable'] == '1' for r in runs)
 err = [float(r['rms_error']) for r in runs if r['cohesion'] == 'off']
-ok = ok and len(err) == 2 and abs(err[0] - err[1]) <= 1e-6 * err[0] + 1e-12
+ok = ok and len(err) == 2 and abs(err[0] - err[1]) <= 1e-2 * err[0]
 ok = ok and float(ref[0]['rms_error']) < 0.1 * err[0]
 full = [r for r in runs if r['cohesion'] != 'off']
 ok = ok and sorted(r['cohesion'] for r in full) == ['exact', 'grid4']
 ok = ok and all(0 < float(r['rms_error']) <= float(r['max_error']) < 1 for r in full)
 sys.exit(0 if ok else 1)
 PY"
+# Float or double: every lane layout ran the target scene's dynamics, stable, and float's error
+# against the reference is the double one's within 1 % (float's own part is far smaller than
+# the step's).
+check "lanes rows: four layouts, stable, float errors within 1 % of double's" "/usr/bin/python3 - <<PY
+import csv, sys
+rows = list(csv.DictReader(open('$out/b/lanes.csv')))
+ok = sorted(r['lane_layout'] for r in rows) == ['double4', 'double8', 'float16', 'float8']
+ok = ok and all(r['stable'] == '1' and float(r['wall_s_per_sim_s']) > 0 for r in rows)
+e = {r['lane_layout']: float(r['rms_error']) for r in rows}
+ok = ok and e['double8'] == e['double4'] and all(abs(e[k] - e['double4']) <= 0.01 * e['double4'] for k in e)
+sys.exit(0 if ok else 1)
+PY"
 check "scaling rows for 1 and 2 threads" \
   "[ \$(grep -c ',1,' $out/b/scaling.csv) -ge 2 ] && [ \$(grep -c ',2,' $out/b/scaling.csv) -ge 2 ]"
 if command -v gnuplot > /dev/null; then
-  check "draws both charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ]"
+  check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ] && [ -s $out/b/lanes.png ]"
 fi
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
-  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md"
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
 if command -v gnuplot > /dev/null; then
   rm -f "$out/b/scaling.png"
   "$bench" --replot --out "$out/b" > /dev/null 2>&1
