@@ -67,6 +67,7 @@ struct Options {
   bool target = true;  ///< the issue's headline scene: 1,000 strands, full wet model, obstacle
   bool lanes = true;   ///< float or double: the target scene's dynamics in every lane layout
   std::vector<std::string> only_scenes;
+  std::vector<std::string> only_series;  ///< scaling: only these Setting::label()s
   bool replot = false;  ///< only redraw the charts from the CSV files already in `out`
 };
 
@@ -328,6 +329,8 @@ void plotLanes(const std::string& dir) {
 const char* kUsage =
     "usage: wet_curly_hair_bench [--out DIR] [--quick] [--repeats N] [--strands N] [--seconds T]\n"
     "                            [--threads N] [--scene NAME]... [--no-scaling]\n"
+    "                            [--scaling-series "
+    "explicit|backward_euler|theta|theta_per_strand]...\n"
     "                            [--no-work-precision] [--no-gating]\n"
     "                            [--no-cohesion] [--no-target] [--no-lanes] [--replot]\n";
 
@@ -351,6 +354,8 @@ int main(int argc, char** argv) {
     else if (a == "--seconds") opt.seconds = std::atof(value().c_str());
     else if (a == "--threads") opt.threads = std::atoi(value().c_str());
     else if (a == "--scene") opt.only_scenes.push_back(value());
+    else if (a == "--scaling-series")
+      opt.only_series.push_back(value());
     else if (a == "--no-scaling") opt.scaling = false;
     else if (a == "--no-work-precision") opt.work_precision = false;
     else if (a == "--no-gating") opt.gating = false;
@@ -485,6 +490,9 @@ int main(int argc, char** argv) {
     BenchScene target = benchScenes()[4];
     target.overrides.push_back({"solver.cohesion.mode", "off"});
     for (const Setting& setting : settings) {
+      if (!opt.only_series.empty() && std::find(opt.only_series.begin(), opt.only_series.end(),
+                                                setting.label()) == opt.only_series.end())
+        continue;
       for (int count : counts) {
         for (int threads : {1, 2}) {
           const double work = double(count) * 32.0 / setting.substep_s;  // particle-substeps/s

@@ -225,13 +225,14 @@ void updateCurlRotation(const HairModel& model, const CurlConfig& config, int st
   }
 }
 
-bool blockUniform(const HairModel& model, int first_strand, int width) {
-  if (first_strand + width > model.strandCount()) return false;
+int blockStrands(const HairModel& model, int first_strand, int width) {
+  const int count = std::min(width, model.strandCount() - first_strand);
+  if (count < 1) return 0;
   const int n = model.strandSize(first_strand);
-  if (n < 2) return false;
-  for (int l = 1; l < width; ++l)
-    if (model.strandSize(first_strand + l) != n) return false;
-  return true;
+  if (n < 2) return 0;
+  for (int l = 1; l < count; ++l)
+    if (model.strandSize(first_strand + l) != n) return 0;
+  return count;
 }
 
 }  // namespace detail
@@ -677,19 +678,23 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
         const int t = ompThreadIndex();
         StepStats& ts = per_thread[t];
         const int first = blk * kLanes;
-        if (!detail::blockUniform(model, first, kLanes)) {
+        // A lone strand (or a block of unequal sizes) runs on its own; a partial last block of
+        // two or more in lanes, so that the strand count need not be a multiple of the width.
+        const int active = detail::blockStrands(model, first, kLanes);
+        if (active < 2) {
           for (int s = first; s < std::min(strands, first + kLanes); ++s)
             advanceStrand(s, ts, &state->scratch[t]);
           continue;
         }
         StrandFlags flags[detail::kMaxStrandLanes];
         for (int l = 0; l < kLanes; ++l) {
-          flags[l] = strandFlags(model, config, in_, first + l, *state);
+          flags[l] = strandFlags(model, config, in_, first + std::min(l, active - 1), *state);
+          if (l >= active) continue;
           ts.wet_strands += flags[l].wet;
           ts.strands_near_obstacles += flags[l].near_obstacle;
         }
-        const double strain = detail::stepStrandBlock(model, config, in_, first, flags, nsub, h,
-                                                      state, &state->scratch[t], &ts);
+        const double strain = detail::stepStrandBlock(model, config, in_, first, active, flags,
+                                                      nsub, h, state, &state->scratch[t], &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
       }
     } else {

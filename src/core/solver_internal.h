@@ -80,16 +80,17 @@ uint64_t extraConstraintRounds(const HairModel& model, const SolverConfig& confi
 /// The widest block of strands advanced together, one per SIMD lane, by stepStrandBlock.
 constexpr int kMaxStrandLanes = 16;
 
-/// True when strands first .. first + width - 1 exist and have the same particle count (at
-/// least 2), so that they can run as one block.
-bool blockUniform(const HairModel& model, int first_strand, int width);
+/// The strands from first_strand on (at most width, fewer in the last block) when they all have
+/// the same particle count (at least 2), so that they can run as one block; 0 when they cannot.
+int blockStrands(const HairModel& model, int first_strand, int width);
 
-/// All nsub substeps of a step for the block of IntegratorConfig::laneWidth() strands starting
-/// at first_strand (flags: one per lane), as substepStrand would advance each of them, in the
-/// configured lane layout (solver_lanes.cpp). `scratch` is the thread's; returns the largest
-/// strain before limiting.
+/// All nsub substeps of a step for the block of `active` (at most IntegratorConfig::laneWidth())
+/// strands starting at first_strand (flags: one per strand), as substepStrand would advance each
+/// of them, in the configured lane layout; a partial block runs with the lanes beyond it
+/// repeating its last strand, in the half-width layout of the same precision when it fits
+/// (solver_lanes.cpp). `scratch` is the thread's; returns the largest strain before limiting.
 double stepStrandBlock(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                       int first_strand, const StrandFlags* flags, int nsub, double h,
+                       int first_strand, int active, const StrandFlags* flags, int nsub, double h,
                        HairState* state, StrandScratch* scratch, StepStats* stats);
 
 }  // namespace detail

@@ -58,21 +58,24 @@ namespace lanes_float16 {
 #undef WCH_LANE_WIDTH
 
 double stepStrandBlock(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                       int first_strand, const StrandFlags* flags, int nsub, double h,
+                       int first_strand, int active, const StrandFlags* flags, int nsub, double h,
                        HairState* state, StrandScratch* scratch, StepStats* stats) {
+  // A partial block that fits half the width takes the half-width layout of the same precision:
+  // the same operations lane by lane, so the same result, on half the padding.
   const bool single = config.integrator.laneFloat();
   const int width = config.integrator.laneWidth();
-  if (single && width == 16)
-    return lanes_float16::stepStrandBlock(model, config, inputs, first_strand, flags, nsub, h,
-                                          state, scratch, stats);
+  const bool half = active <= width / 2;
+  if (single && width == 16 && !half)
+    return lanes_float16::stepStrandBlock(model, config, inputs, first_strand, active, flags, nsub,
+                                          h, state, scratch, stats);
   if (single)
-    return lanes_float8::stepStrandBlock(model, config, inputs, first_strand, flags, nsub, h, state,
-                                         scratch, stats);
-  if (width == 8)
-    return lanes_double8::stepStrandBlock(model, config, inputs, first_strand, flags, nsub, h,
-                                          state, scratch, stats);
-  return lanes_double4::stepStrandBlock(model, config, inputs, first_strand, flags, nsub, h, state,
-                                        scratch, stats);
+    return lanes_float8::stepStrandBlock(model, config, inputs, first_strand, active, flags, nsub,
+                                         h, state, scratch, stats);
+  if (width == 8 && !half)
+    return lanes_double8::stepStrandBlock(model, config, inputs, first_strand, active, flags, nsub,
+                                          h, state, scratch, stats);
+  return lanes_double4::stepStrandBlock(model, config, inputs, first_strand, active, flags, nsub, h,
+                                        state, scratch, stats);
 }
 
 }  // namespace detail

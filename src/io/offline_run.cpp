@@ -60,7 +60,8 @@ std::string RunSummary::toJson() const {
       .add("max_obstacle_penetration_m", max_obstacle_penetration_m)
       .add("max_penetration_after_first_step_m", max_penetration_after_first_step_m)
       .add("max_head_penetration_after_first_step_m", max_head_penetration_after_first_step_m)
-      .add("max_obstacle_penetration_after_first_step_m", max_obstacle_penetration_after_first_step_m)
+      .add("max_obstacle_penetration_after_first_step_m",
+           max_obstacle_penetration_after_first_step_m)
       .add("rigid_kinetic_energy_max_j", rigid_kinetic_energy_max_j)
       .add("rigid_potential_rise_max_j", rigid_potential_rise_max_j)
       .add("head_peak_reach_speed_m_s", head_peak_reach_speed_m_s)
@@ -81,6 +82,7 @@ std::string RunSummary::toJson() const {
       .add("rtf_window_s", rtf_window_s)
       .add("realtime_factor_windows", realtime_factor_windows)
       .add("integrator", integrator)
+      .add("lane_layout", lane_layout)
       .add("threads", threads)
       .add("time_s", time_s)
       .add("energy", energy)
@@ -180,6 +182,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.series_stride = options.series_stride;
   s.rtf_window_s = options.rtf_window_s;
   s.integrator = scene.solver.integrator.method;
+  s.lane_layout =
+      scene.solver.integrator.strand_lanes ? scene.solver.integrator.lane_layout : "off";
   s.threads = scene.solver.integrator.threads;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);

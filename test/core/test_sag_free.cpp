@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "wet_curly_hair/core/frames.h"
@@ -170,14 +171,22 @@ TEST(SagFree, NetForceAtTheGroomIsZeroForAnyGroom) {
 }
 
 TEST(SagFree, TheSolverSeesNoForceAtTheGroom) {
-  // Through the real step: one frame from rest on the still head leaves the hair still.
-  SolverConfig c;
-  c.sag_free = true;
-  const HairModel m = makeModel(generated(0.01, 12), c);
-  const HairState s = runStill(m, c, kFrame);
-  double speed = 0.0;
-  for (const Vec3& v : s.velocity) speed = std::max(speed, v.norm());
-  EXPECT_LT(speed, 1e-10);  // a free fall would reach g * frame = 0.16 m/s
+  // Through the real step: one frame from rest on the still head leaves the hair still, to
+  // round-off in double (the double4 lanes). In float (the default float16 lanes) the spring
+  // forces that hold the hair up are computed from positions known to 2^-24 of their distance
+  // from the head (1e-8 m against 8 mm edges): the residual is a small fraction of gravity.
+  // Bound: 1e-4 m/s, 1/1600 of the 0.16 m/s a free fall reaches in the frame.
+  for (const char* layout : {"double4", "float16"}) {
+    SolverConfig c;
+    c.sag_free = true;
+    c.integrator.lane_layout = layout;
+    const HairModel m = makeModel(generated(0.01, 12), c);
+    const HairState s = runStill(m, c, kFrame);
+    double speed = 0.0;
+    for (const Vec3& v : s.velocity) speed = std::max(speed, v.norm());
+    std::printf("%s: largest speed after a frame %.3g m/s\n", layout, speed);
+    EXPECT_LT(speed, std::string(layout) == "double4" ? 1e-10 : 1e-4) << layout;
+  }
 }
 
 TEST(SagFree, CurlyStrandsOnAStillHeadKeepTheirGroom) {

@@ -113,6 +113,8 @@ struct RunSummary {
   /// partial window included when it holds at least one frame).
   std::vector<double> realtime_factor_windows;
   std::string integrator;                   ///< solver.integrator.method
+  /// solver.integrator.lane_layout, or "off" when strands run one at a time (strand_lanes).
+  std::string lane_layout;
   int threads = 1;                          ///< solver.integrator.threads
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
   /// seconds (all threads).
