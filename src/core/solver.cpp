@@ -673,7 +673,9 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     if (lanes) {
       const int kLanes = config.integrator.laneWidth();
       const int blocks = (strands + kLanes - 1) / kLanes;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 2)
+      // One block per grab: with 16 strands per block, 100 strands are 7 blocks, and chunks of
+      // two left one thread four blocks against three.
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
       for (int blk = 0; blk < blocks; ++blk) {
         const int t = ompThreadIndex();
         StepStats& ts = per_thread[t];
