@@ -14,8 +14,9 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
   const uint32_t mask = table - 1;
   std::fill(grid->cell_start.begin(), grid->cell_start.end(), 0u);
   const int64_t n = static_cast<int64_t>(positions.size());
-  // Hashing in parallel; the counting sort stays serial so the order within a cell (and so
-  // every sum over neighbours) is the same for any thread count.
+  // Hashing in parallel; the counting sort (a count, a prefix sum and a scatter: three plain
+  // passes) stays serial so the order within a cell (and so every sum over neighbours) is the
+  // same for any thread count.
 #pragma omp parallel for num_threads(threads) schedule(static)
   for (int64_t i = 0; i < n; ++i) {
     const Vec3& x = positions[i];
@@ -30,14 +31,18 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
   for (uint32_t c = table; c > 0; --c) grid->cell_start[c] = grid->cell_start[c - 1];
   grid->cell_start[0] = 0;
   // Within each bucket, order the entries by cell key (then particle index): each cell becomes
-  // one contiguous run. Buckets hold a few entries: insertion sort, deterministic.
+  // one contiguous run. Buckets hold a few entries: insertion sort, deterministic; buckets are
+  // independent, so keys and sorts run in parallel (the result is the same for any thread count).
+#pragma omp parallel for num_threads(threads) schedule(static)
   for (int64_t k = 0; k < n; ++k) {
     const Vec3& x = positions[grid->sorted[k]];
     grid->sorted_key[k] = detail::cellKey(detail::cellCoord(x.x(), cell_m),
                                           detail::cellCoord(x.y(), cell_m),
                                           detail::cellCoord(x.z(), cell_m));
   }
-  for (uint32_t c = 0; c < table; ++c) {
+#pragma omp parallel for num_threads(threads) schedule(static, 1024)
+  for (int64_t cell = 0; cell < int64_t(table); ++cell) {
+    const uint32_t c = static_cast<uint32_t>(cell);
     const uint32_t lo = grid->cell_start[c], hi = grid->cell_start[c + 1];
     for (uint32_t a = lo + 1; a < hi; ++a) {
       const uint64_t key = grid->sorted_key[a];
