@@ -49,7 +49,7 @@ struct Setting {
   /// at a time, the reference path (labelled "<integrator>_per_strand" in the scaling CSV).
   bool lanes = true;
   /// solver.integrator.lane_layout; empty: the scene's (the default).
-  std::string layout;
+  std::string layout{};
   std::string label() const { return lanes ? integrator : integrator + "_per_strand"; }
 };
 
@@ -211,6 +211,13 @@ bool writeFile(const std::string& path, const std::string& text) {
 
 bool haveGnuplot() { return std::system("command -v gnuplot > /dev/null 2>&1") == 0; }
 
+/// Writes a gnuplot script and runs it (the charts go where the script says).
+void runGnuplot(const std::string& script, const std::string& text) {
+  writeFile(script, text);
+  if (std::system(("gnuplot " + script).c_str()) != 0)
+    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+}
+
 /// Work-precision chart: one line per integrator (all scenes' points, one panel per scene).
 void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& scenes) {
   std::ostringstream gp;
@@ -239,10 +246,7 @@ void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& s
     gp << "\nunset arrow\n";
   }
   gp << "unset multiplot\n";
-  const std::string script = dir + "/work_precision.gp";
-  writeFile(script, gp.str());
-  if (std::system(("gnuplot " + script).c_str()) != 0)
-    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+  runGnuplot(dir + "/work_precision.gp", gp.str());
 }
 
 void plotScaling(const std::string& dir) {
@@ -288,10 +292,7 @@ void plotScaling(const std::string& dir) {
   gp << "\n";
   if (block == 0) return;
   writeFile(dir + "/scaling_series.dat", data.str());
-  const std::string script = dir + "/scaling.gp";
-  writeFile(script, gp.str());
-  if (std::system(("gnuplot " + script).c_str()) != 0)
-    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+  runGnuplot(dir + "/scaling.gp", gp.str());
 }
 
 /// Float or double: cost against error of the target scene's dynamics, one line per lane layout
@@ -320,10 +321,7 @@ void plotLanes(const std::string& dir) {
        << layouts[k] << " explicit'";
   }
   gp << "\n";
-  const std::string script = dir + "/lanes.gp";
-  writeFile(script, gp.str());
-  if (std::system(("gnuplot " + script).c_str()) != 0)
-    std::fprintf(stderr, "wet_curly_hair_bench: gnuplot failed on %s\n", script.c_str());
+  runGnuplot(dir + "/lanes.gp", gp.str());
 }
 
 const char* kUsage =

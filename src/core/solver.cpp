@@ -689,12 +689,12 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
           continue;
         }
         StrandFlags flags[detail::kMaxStrandLanes];
-        for (int l = 0; l < kLanes; ++l) {
-          flags[l] = strandFlags(model, config, in_, first + std::min(l, active - 1), *state);
-          if (l >= active) continue;
+        for (int l = 0; l < active; ++l) {
+          flags[l] = strandFlags(model, config, in_, first + l, *state);
           ts.wet_strands += flags[l].wet;
           ts.strands_near_obstacles += flags[l].near_obstacle;
         }
+        std::fill(flags + active, flags + kLanes, flags[active - 1]);  // the padding lanes
         const double strain = detail::stepStrandBlock(model, config, in_, first, active, flags,
                                                       nsub, h, state, &state->scratch[t], &ts);
         ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
