@@ -95,9 +95,11 @@ def scaling(out, sc, common):
         key = (r["integrator"], r["substep_s"])
         if key not in settings:
             settings.append(key)
+    paired = bool(sc) and "relative_to_1000" in sc[0]
     out.append("| integrator | substep, s | threads | ns per particle-substep, 100 -> 10,000 "
-               "strands | spread | real-time factor 1,000 / 10,000 strands |")
-    out.append("|---|---|---|---|---|---|")
+               "strands | spread | %sreal-time factor 1,000 / 10,000 strands |" %
+               ("paired spread | " if paired else ""))
+    out.append("|---|---|---|---|---|%s---|" % ("---|" if paired else ""))
     ns_at = {}
     for m, h in settings:
         for t in ("1", "2"):
@@ -109,8 +111,12 @@ def scaling(out, sc, common):
             rtf = {int(p["strands"]): float(p["realtime_factor"]) for p in pts}
             for p in pts:
                 ns_at[(m, t, int(p["strands"]))] = float(p["ns_per_particle_substep"])
-            out.append("| %s | %s | %s | %s | %.2fx | %s / %s |" % (
+            # Paired: each point's cost over the 1,000-strand point's, median of the ratios
+            # within each round (the bench interleaves the strand counts in rounds).
+            rel = [float(p["relative_to_1000"]) for p in pts] if paired else []
+            out.append("| %s | %s | %s | %s | %.2fx | %s%s / %s |" % (
                 m, fmt(float(h)), t, ", ".join("%.0f" % v for v in ns), max(ns) / min(ns),
+                ("%.2fx | " % (max(rel) / min(rel))) if paired else "",
                 fmt(rtf.get(1000, float("nan"))), fmt(rtf.get(10000, float("nan")))))
     out.append("\nSecond thread (cost with 1 thread / cost with 2), per strand count:\n")
     for m, h in settings:

@@ -480,56 +480,93 @@ int main(int argc, char** argv) {
                                          {"theta", 1.0 / 240},
                                          {"theta", 1.0 / 240, false}};
     std::ostringstream csv;
-    csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,ns_per_particle_substep,"
-           "realtime_factor,runs\n";
+    csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,ns_per_particle_"
+           "substep,"
+           "realtime_factor,runs,rounds,relative_to_1000\n";
     // obstacle_slide (wet: curl, eq. 13, adhesion, obstacle collision) without the per-frame
     // cohesion display pass: its cost grows with the neighbours within h, i.e. with the strand
     // density, not with the strand count as such; it is measured on its own (README).
     BenchScene target = benchScenes()[4];
     target.overrides.push_back({"solver.cohesion.mode", "off"});
+    // A series' points are measured in rounds: every round runs each point of the series once
+    // (the order reversed every other round), so that a slow spell of this shared machine falls
+    // on all strand counts alike instead of on the one being measured. A point's cost is the
+    // median over the rounds; its cost relative to the 1,000-strand point of the same thread
+    // count is the median of the ratios within each round (paired), the figure the flatness is
+    // judged by.
+    const int rounds = opt.quick ? 1 : std::max(5, opt.repeats);
+    const int reference_count = opt.quick ? counts.back() : 1000;
+    struct Point {
+      int count = 0;
+      int threads = 1;
+      io::SceneConfig scene;
+      std::vector<double> costs;  ///< wall s per simulated s, one per round
+      int runs = 0;
+      RunResult run;
+    };
     for (const Setting& setting : settings) {
       if (!opt.only_series.empty() && std::find(opt.only_series.begin(), opt.only_series.end(),
                                                 setting.label()) == opt.only_series.end())
         continue;
+      std::vector<Point> points;
       for (int count : counts) {
         for (int threads : {1, 2}) {
           const double work = double(count) * 32.0 / setting.substep_s;  // particle-substeps/s
           const double seconds =
               opt.quick ? 0.1 : std::clamp(std::round(30.0 * 3e7 / work) / 30.0, 1.0 / 30, 1.0);
-          io::SceneConfig scene;
-          if (!makeScene(target, count, seconds, &scene, &why)) {
+          Point p;
+          p.count = count;
+          p.threads = threads;
+          if (!makeScene(target, count, seconds, &p.scene, &why)) {
             std::fprintf(stderr, "wet_curly_hair_bench: %s\n", why.c_str());
             return 2;
           }
-          // At least 3 runs; short points (a 100-strand run is 20-50 ms of wall time) take more,
-          // until 1 s of wall time in all or 15 runs: a one-off of ~15 ms in the first frames of
-          // one run (seen on this shared machine) must not become the median.
-          const int min_repeats = opt.quick ? 1 : std::max(3, opt.repeats / 2 + 1);
-          const int max_repeats = opt.quick ? 1 : 15;
-          std::vector<double> walls;
-          RunResult run;
-          double total_wall = 0.0;
-          for (int r = 0; r < max_repeats && (r < min_repeats || total_wall < 1.0); ++r) {
-            if (!runOnce(scene, setting, threads, false, &run, &why)) {
+          points.push_back(std::move(p));
+        }
+      }
+      for (int r = 0; r < rounds; ++r) {
+        for (size_t k = 0; k < points.size(); ++k) {
+          Point& p = points[r % 2 ? points.size() - 1 - k : k];
+          // Short points (a 100-strand run is 20-50 ms of wall time) take several runs per
+          // round, until 0.25 s of wall time or 8 runs; the round's cost is their total wall
+          // time over their total simulated time.
+          double wall = 0.0, sim = 0.0;
+          for (int n = 0; n < (opt.quick ? 1 : 8) && (n == 0 || wall < 0.25); ++n) {
+            if (!runOnce(p.scene, setting, p.threads, false, &p.run, &why)) {
               std::fprintf(stderr, "wet_curly_hair_bench: scaling: %s\n", why.c_str());
               return 2;
             }
-            walls.push_back(run.summary.wall_s / run.summary.sim_s);
-            total_wall += run.summary.wall_s;
+            wall += p.run.summary.wall_s;
+            sim += p.run.summary.sim_s;
+            ++p.runs;
           }
-          const int repeats = static_cast<int>(walls.size());
-          const double cost = median(walls);
-          const double substeps = 1.0 / run.summary.substep_s;
-          const double ns = 1e9 * cost / (run.summary.particles * substeps);
-          csv << setting.label() << "," << count << "," << threads << ","
-              << fmt(run.summary.substep_s) << "," << run.summary.particles << "," << fmt(cost)
-              << "," << fmt(ns) << "," << fmt(1.0 / cost) << "," << repeats << "\n";
-          std::printf("scaling %-15s %6d strands %d thread(s): %7.1f ns/particle-substep, "
-                      "real-time factor %.3f\n",
-                      setting.label().c_str(), count, threads, ns, 1.0 / cost);
-          std::fflush(stdout);
+          p.costs.push_back(wall / sim);
         }
       }
+      for (const Point& p : points) {
+        const Point* ref = nullptr;
+        for (const Point& q : points)
+          if (q.count == reference_count && q.threads == p.threads) ref = &q;
+        std::vector<double> ratios;
+        // Per particle-substep (the substep is the series'; the particle counts differ).
+        const double per_particle = double(ref ? ref->run.summary.particles : 1) /
+                                    std::max<double>(1, p.run.summary.particles);
+        for (int r = 0; ref && r < rounds; ++r)
+          ratios.push_back(per_particle * p.costs[r] / ref->costs[r]);
+        const double cost = median(p.costs);
+        const double substeps = 1.0 / p.run.summary.substep_s;
+        const double ns = 1e9 * cost / (p.run.summary.particles * substeps);
+        csv << setting.label() << "," << p.count << "," << p.threads << ","
+            << fmt(p.run.summary.substep_s) << "," << p.run.summary.particles << "," << fmt(cost)
+            << "," << fmt(ns) << "," << fmt(1.0 / cost) << "," << p.runs << "," << rounds << ","
+            << fmt(median(ratios)) << "\n";
+        std::printf(
+            "scaling %-16s %6d strands %d thread(s): %7.1f ns/particle-substep, "
+            "real-time factor %.3f, %.3f x the %d-strand cost\n",
+            setting.label().c_str(), p.count, p.threads, ns, 1.0 / cost, median(ratios),
+            reference_count);
+      }
+      std::fflush(stdout);
     }
     all_ok = writeFile(opt.out + "/scaling.csv", csv.str()) && all_ok;
     if (haveGnuplot()) plotScaling(opt.out);

@@ -120,7 +120,8 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
       !finiteInRange(p + "theta", theta, 0.5, 1.0, why) ||
       !finiteInRange(p + "teleport_speed_m_s", teleport_speed_m_s, 0.0, 1e6, why) ||
       !finiteInRange(p + "teleport_angle_rad", teleport_angle_rad, 0.0, 10.0, why) ||
-      !oneOf(p + "lane_layout", lane_layout, {"double4", "double8", "float8", "float16"}, why))
+      !oneOf(p + "lane_layout", lane_layout, {"auto", "double4", "double8", "float8", "float16"},
+             why))
     return false;
   if (threads < 1 || threads > kMaxSolverThreads) {
     if (why)

@@ -182,8 +182,9 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.series_stride = options.series_stride;
   s.rtf_window_s = options.rtf_window_s;
   s.integrator = scene.solver.integrator.method;
-  s.lane_layout =
-      scene.solver.integrator.strand_lanes ? scene.solver.integrator.lane_layout : "off";
+  s.lane_layout = scene.solver.integrator.strand_lanes
+                      ? std::string(scene.solver.integrator.resolvedLaneLayout())
+                      : std::string("off");
   s.threads = scene.solver.integrator.threads;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);

@@ -124,7 +124,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   b("solver.integrator.strand_lanes", &c.integrator.strand_lanes,
     "strands in SIMD blocks (false: one at a time)", false);
   str("solver.integrator.lane_layout", &c.integrator.lane_layout,
-      "arithmetic and strands per SIMD block: double4, double8, float8 or float16", false);
+      "arithmetic and strands per SIMD block: auto (float, one register), double4, double8, "
+      "float8 or float16",
+      false);
   i("solver.integrator.threads", &c.integrator.threads, "solver threads (results identical)",
     false);
   d("solver.integrator.teleport_speed_m_s", &c.integrator.teleport_speed_m_s,

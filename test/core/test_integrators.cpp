@@ -122,10 +122,10 @@ Groom curlyGroom(int strands) {
 }
 
 TEST(Integrators, CurlyStrandAtRestStaysAtRestImplicitly) {
-  // In double (the double4 lanes) to round-off. In float (the default float16 lanes, here the
-  // four strands run as a partial block in float8) a rest position is known to 2^-24 of its
-  // distance from the head, and the springs turn that into forces: the hair settles within a
-  // few of those steps (1e-8 m) of its rest pose. Bound: 1 um, 1-2 % of a hair's diameter.
+  // In double (the double4 lanes) to round-off. In float (float16 lanes, here the four strands
+  // run as a partial block in float8, the default without AVX-512) a rest position is known to
+  // 2^-24 of its distance from the head, and the springs turn that into forces: the hair settles
+  // within a few of those steps (1e-8 m) of its rest pose. Bound: 1 um, 1-2 % of a hair's diameter.
   for (const char* layout : {"double4", "float16"}) {
     for (const char* method : {"backward_euler", "midpoint", "theta"}) {
       SolverConfig c;

@@ -146,8 +146,13 @@ void expectSameRun(const Outcome& lanes, const Outcome& one, const std::string& 
   EXPECT_NEAR(double(lanes.total.obstacle_contacts), double(one.total.obstacle_contacts),
               0.02 * one.total.obstacle_contacts + 2)
       << what;
+  // Adhesion acts in a band (h/2 < d <= h) that curls brush in and out of: its count moves with
+  // round-off. Measured on the unequal-size scene below (AVX2 build): translating the whole scene
+  // by 1 nm, 100 nm or 10 um changes the one-strand count by up to 2.1 % (1,293-1,320) and
+  // lanes against one strand at a time differ by 0.3-2.8 % over those offsets, with positions
+  // within 1 um throughout; the bound is 4 %.
   EXPECT_NEAR(double(lanes.total.adhesion_active), double(one.total.adhesion_active),
-              0.02 * one.total.adhesion_active + 2)
+              0.04 * one.total.adhesion_active + 2)
       << what;
   EXPECT_EQ(lanes.total.repaired_strands, 0u) << what;
   EXPECT_EQ(one.total.repaired_strands, 0u) << what;
@@ -307,12 +312,31 @@ TEST(SolverLanes, LaneLayoutsOutsideTheTableAreRefusedByName) {
     EXPECT_FALSE(c.validate("solver.integrator.", &why)) << bad;
     EXPECT_NE(why.find("solver.integrator.lane_layout"), std::string::npos) << why;
   }
-  for (const char* good : {"double4", "double8", "float8", "float16"}) {
+  for (const char* good : {"auto", "double4", "double8", "float8", "float16"}) {
     IntegratorConfig c;
     c.lane_layout = good;
     std::string why;
     EXPECT_TRUE(c.validate("solver.integrator.", &why)) << why;
   }
+}
+
+TEST(SolverLanes, TheDefaultLayoutIsFloatInOneRegisterOfTheBuild) {
+  // A block wider than one register costs 3x per particle on an AVX2 machine (README "Float
+  // or double"): auto is float16 with AVX-512 and float8 without, and an explicit layout stays.
+  IntegratorConfig c;
+  EXPECT_EQ(c.lane_layout, "auto");
+#ifdef __AVX512F__
+  EXPECT_EQ(c.resolvedLaneLayout(), "float16");
+  EXPECT_EQ(c.laneWidth(), 16);
+#else
+  EXPECT_EQ(c.resolvedLaneLayout(), "float8");
+  EXPECT_EQ(c.laneWidth(), 8);
+#endif
+  EXPECT_TRUE(c.laneFloat());
+  c.lane_layout = "double8";
+  EXPECT_EQ(c.resolvedLaneLayout(), "double8");
+  EXPECT_EQ(c.laneWidth(), 8);
+  EXPECT_FALSE(c.laneFloat());
 }
 
 TEST(SolverLanes, APartialLastBlockRunsInLanesAndCountsOnlyItsStrands) {

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "wet_curly_hair/core/types.h"
 
@@ -74,15 +75,32 @@ struct IntegratorConfig {
   /// the same operations as one strand at a time), every integrator. false: one strand at a
   /// time, the reference path.
   bool strand_lanes = true;
-  /// The lanes' arithmetic and strands per block, one AVX or one AVX-512 register: "double4",
-  /// "double8" (equal to the one-strand path to round-off), "float8", "float16" (every operation
-  /// of a substep in float, positions relative to the head; the state stays double between
-  /// steps, so float is rounded in and out once per step). One key, so that any value set alone
-  /// is valid. Default float16: on the benchmark's target scene it costs 0.55-0.68 of double4
-  /// at the same error to 3-4 digits (README "Float or double").
-  std::string lane_layout = "float16";
-  bool laneFloat() const { return lane_layout == "float8" || lane_layout == "float16"; }
-  int laneWidth() const { return lane_layout == "float16" ? 16 : lane_layout == "double4" ? 4 : 8; }
+  /// The lanes' arithmetic and strands per block: "double4", "double8" (equal to the one-strand
+  /// path to round-off), "float8", "float16" (every operation of a substep in float, positions
+  /// relative to the head; the state stays double between steps, so float is rounded in and out
+  /// once per step), or "auto": float in one register of the machine the core was compiled for,
+  /// float16 with AVX-512, float8 without. One key, so that any value set alone is valid.
+  /// Default auto: float costs 0.52-0.70 of double at the same error to 3-4 digits, and a block
+  /// wider than one register costs 3x per particle on an AVX2 machine (float16 against float8,
+  /// double8 against double4; README "Float or double").
+  std::string lane_layout = "auto";
+  /// lane_layout with "auto" resolved for this build (no allocation: the block loop asks).
+  std::string_view resolvedLaneLayout() const {
+    if (lane_layout != "auto") return lane_layout;
+#ifdef __AVX512F__
+    return "float16";
+#else
+    return "float8";
+#endif
+  }
+  bool laneFloat() const {
+    const std::string_view l = resolvedLaneLayout();
+    return l == "float8" || l == "float16";
+  }
+  int laneWidth() const {
+    const std::string_view l = resolvedLaneLayout();
+    return l == "float16" ? 16 : l == "double4" ? 4 : 8;
+  }
   /// A head that moves faster than this within a step (translation speed, m/s; or turns more than
   /// teleport_angle_rad) has jumped, not moved: the hair is carried rigidly by the jump before
   /// the step and keeps its velocities relative to the head (a tracking glitch or a teleport must
