@@ -480,9 +480,8 @@ int main(int argc, char** argv) {
                                          {"theta", 1.0 / 240},
                                          {"theta", 1.0 / 240, false}};
     std::ostringstream csv;
-    csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,ns_per_particle_"
-           "substep,"
-           "realtime_factor,runs,rounds,relative_to_1000\n";
+    csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,"
+           "ns_per_particle_substep,realtime_factor,runs,rounds,relative_to_1000\n";
     // obstacle_slide (wet: curl, eq. 13, adhesion, obstacle collision) without the per-frame
     // cohesion display pass: its cost grows with the neighbours within h, i.e. with the strand
     // density, not with the strand count as such; it is measured on its own (README).
