@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 
 #ifdef _OPENMP
 #include <omp.h>
@@ -45,6 +46,54 @@ inline V loadLanes(const Real* p) {
   V v;
   std::memcpy(&v, p, sizeof v);
   return v;
+}
+
+/// N lanes of float, and two of them joined into 2N.
+template <int N>
+struct FloatLanes {
+  typedef float type __attribute__((vector_size(4 * N)));
+};
+template <int N, size_t... I>
+typename FloatLanes<2 * N>::type concatLanes(typename FloatLanes<N>::type a,
+                                             typename FloatLanes<N>::type b,
+                                             std::index_sequence<I...>) {
+  return __builtin_shufflevector(a, b, static_cast<int>(I)...);
+}
+template <int N>
+typename FloatLanes<2 * N>::type concatLanes(typename FloatLanes<N>::type a,
+                                             typename FloatLanes<N>::type b) {
+  return concatLanes<N>(a, b, std::make_index_sequence<2 * N>());
+}
+
+/// N lanes of double; the sum of N lanes as the sum of the two halves, recursively.
+template <int N>
+struct DoubleLanes {
+  typedef double type __attribute__((vector_size(8 * N)));
+};
+template <int N, size_t... I>
+typename DoubleLanes<N / 2>::type lowHalf(typename DoubleLanes<N>::type v,
+                                          std::index_sequence<I...>) {
+  return __builtin_shufflevector(v, v, static_cast<int>(I)...);
+}
+template <int N, size_t... I>
+typename DoubleLanes<N / 2>::type highHalf(typename DoubleLanes<N>::type v,
+                                           std::index_sequence<I...>) {
+  return __builtin_shufflevector(v, v, static_cast<int>(I + N / 2)...);
+}
+template <int N>
+double pairwiseSum(typename DoubleLanes<N>::type v) {
+  if constexpr (N == 1) {
+    return v[0];
+  } else {
+    return pairwiseSum<N / 2>(lowHalf<N>(v, std::make_index_sequence<N / 2>()) +
+                              highHalf<N>(v, std::make_index_sequence<N / 2>()));
+  }
+}
+
+/// Sum of the 8 lanes, in double, pairwise (a sequential sum cost as much as several rows).
+template <typename V>
+inline double laneSum(const V& v) {
+  return pairwiseSum<kLanes>(__builtin_convertvector(v, typename DoubleLanes<kLanes>::type));
 }
 
 /// The rows (fixed ky, kz) that may hold nodes within h = kCells c of the point r (relative to
@@ -96,14 +145,6 @@ struct RowWindow {
   }
 };
 
-/// Sum of the lanes, in double.
-template <typename V>
-inline double laneSum(const V& v) {
-  double s = 0.0;
-  for (int l = 0; l < kLanes; ++l) s += v[l];
-  return s;
-}
-
 /// sum_n W(|r - x_n|) a_n over the nodes within h (node kernel, unnormalised), evaluated in Real.
 /// Each lane keeps its own sum over the rows, added once at the end (a horizontal sum per row
 /// cost more than the row itself).
@@ -126,6 +167,108 @@ double gatherScalar(const Lattice& L, const Real* __restrict a, const Vec3& r, d
   double sum = 0.0;
   for (int c = 0; c < Window::kChunks; ++c) sum += laneSum(acc[c]);
   return sum;
+}
+
+/// The float gathers for row widths that divide a register of floats (4 nodes at 2 nodes per
+/// radius; 8 at 4 with AVX-512): kRows rows of one layer (consecutive ky) share a vector, so a
+/// gather reads 2-4x fewer vectors than with one row per vector, half of whose lanes are padding
+/// at 2 nodes per radius. Same window, same per-node kernel values as RowWindow; only the order
+/// of the sums differs.
+template <int kCells>
+struct PackedRowWindow {
+  static constexpr int kWidth = 2 * kCells;
+  static constexpr int kVectorLanes = kCohesionFloatLanes;
+  static constexpr int kRows = kVectorLanes / kWidth;  ///< rows per vector
+  static constexpr int kGroups = kWidth / kRows;       ///< vectors per layer
+  static_assert(kRows >= 2 && kRows * kWidth == kVectorLanes && kGroups * kRows == kWidth,
+                "rows must tile the register");
+  typedef typename FloatLanes<kVectorLanes>::type V;
+  int64_t kx0, ky0, kz0;
+  V dx, dx2;                    ///< per lane: the node's x offset (lane % kWidth)
+  V dy[kGroups], dy2[kGroups];  ///< per lane: the row's y offset (row g kRows + lane / kWidth)
+  float group_dy2[kGroups];     ///< the smallest dy^2 of a group's rows
+  float dz[kWidth], dz2[kWidth];
+  PackedRowWindow(const Lattice& L, const Vec3& r) {
+    kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - kCells + 1;
+    ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - kCells + 1;
+    kz0 = static_cast<int64_t>(std::floor(r.z() * L.inv_c)) - kCells + 1;
+    for (int l = 0; l < kVectorLanes; ++l) {
+      const double d = double(kx0 + l % kWidth) * L.c - r.x();
+      dx[l] = static_cast<float>(d);
+      dx2[l] = static_cast<float>(d * d);
+    }
+    for (int g = 0; g < kGroups; ++g) {
+      group_dy2[g] = INFINITY;
+      for (int l = 0; l < kVectorLanes; ++l) {
+        const double e = double(ky0 + g * kRows + l / kWidth) * L.c - r.y();
+        dy[g][l] = static_cast<float>(e);
+        dy2[g][l] = static_cast<float>(e * e);
+        group_dy2[g] = std::min(group_dy2[g], dy2[g][l]);
+      }
+    }
+    for (int a = 0; a < kWidth; ++a) {
+      const double ez = double(kz0 + a) * L.c - r.z();
+      dz[a] = static_cast<float>(ez);
+      dz2[a] = static_cast<float>(ez * ez);
+    }
+  }
+  /// The kRows rows of a group, from its first node, as one vector (row loads joined in
+  /// registers: a copy through memory stalled on store forwarding, 2x the whole pass).
+  static V load(const float* a, int64_t first, int64_t nx) {
+    typedef typename FloatLanes<kWidth>::type Row;
+    Row r[kRows];
+    for (int k = 0; k < kRows; ++k) r[k] = loadLanes<Row>(a + first + k * nx);
+    if constexpr (kRows == 2) {
+      return concatLanes<kWidth>(r[0], r[1]);
+    } else {
+      static_assert(kRows == 4, "2 or 4 rows per register");
+      return concatLanes<2 * kWidth>(concatLanes<kWidth>(r[0], r[1]),
+                                     concatLanes<kWidth>(r[2], r[3]));
+    }
+  }
+  /// Calls group(first node, g, dz, dz^2) for every group with a row within h.
+  template <typename Group>
+  void forEachGroup(const Lattice& L, double h2d, Group group) const {
+    const float h2 = static_cast<float>(h2d);
+    for (int a = 0; a < kWidth; ++a) {
+      if (dz2[a] >= h2) continue;
+      const int64_t layer = L.index(kx0, ky0, kz0 + a);
+      for (int g = 0; g < kGroups; ++g) {
+        if (group_dy2[g] + dz2[a] >= h2) continue;
+        group(layer + g * kRows * L.nx, g, dz[a], dz2[a]);
+      }
+    }
+  }
+  /// The lanes' sum in double, pairwise in vectors (a sequential sum of the 16 lanes cost a third
+  /// of a gather).
+  static double sum(const V& v) {
+    return pairwiseSum<kVectorLanes>(
+        __builtin_convertvector(v, typename DoubleLanes<kVectorLanes>::type));
+  }
+};
+
+/// Whether the packed float gathers apply at kCells nodes per radius.
+template <int kCells>
+constexpr bool kPackedRows = kCohesionFloatLanes % (2 * kCells) == 0 && kCohesionFloatLanes /
+                                                                                (2 * kCells) >=
+                                                                            2;
+
+/// gatherScalar in float with packed rows.
+template <int kCells>
+double gatherScalarPacked(const Lattice& L, const float* __restrict a, const Vec3& r, double h2d) {
+  typedef PackedRowWindow<kCells> Window;
+  typedef typename Window::V V;
+  const Window win(L, r);
+  const float ka = static_cast<float>(L.ka), kb = static_cast<float>(L.kb);
+  const float h2 = static_cast<float>(h2d);
+  const V zero = {};
+  V acc = zero;
+  win.forEachGroup(L, h2d, [&](int64_t first, int g, float, float dz2) {
+    V q = h2 - (win.dx2 + (win.dy2[g] + dz2));
+    q = q > zero ? q : zero;
+    acc += Window::load(a, first, L.nx) * (q * (q * q + ka * q + kb));
+  });
+  return Window::sum(acc);
 }
 
 /// Node arrays of pass 2 (eq. 10 over all strands).
@@ -176,6 +319,50 @@ WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, doub
   return sums;
 }
 
+/// gatherWet in float with packed rows.
+template <int kCells>
+WetSums gatherWetPacked(const Lattice& L, const WetNodes<float>& g, const Vec3& r, double h2d) {
+  typedef PackedRowWindow<kCells> Window;
+  typedef typename Window::V V;
+  const Window win(L, r);
+  const float ka = static_cast<float>(L.ka), kb = static_cast<float>(L.kb);
+  const float h2 = static_cast<float>(h2d);
+  const int64_t nx = L.nx;
+  const V zero = {};
+  V aw = zero, as = zero, ax = zero, ay = zero, az = zero;
+  win.forEachGroup(L, h2d, [&](int64_t first, int grp, float dz, float dz2) {
+    V q = h2 - (win.dx2 + (win.dy2[grp] + dz2));
+    q = q > zero ? q : zero;
+    const V w = q * (q * q + ka * q + kb);
+    const V ws = w * Window::load(g.wet_volume, first, nx);
+    aw += w * Window::load(g.volume, first, nx);
+    as += ws;
+    ax += w * Window::load(g.qx, first, nx);
+    ay += w * Window::load(g.qy, first, nx) + ws * win.dy[grp];
+    az += w * Window::load(g.qz, first, nx) + ws * dz;
+  });
+  WetSums sums;
+  sums.weight = Window::sum(aw);
+  sums.pull = Vec3(Window::sum(ax + as * win.dx), Window::sum(ay), Window::sum(az));
+  return sums;
+}
+
+/// The float gathers: packed rows where they tile a register, one row per vector elsewhere.
+template <int kCells>
+double gatherScalarSingle(const Lattice& L, const float* a, const Vec3& r, double h2) {
+  if constexpr (kPackedRows<kCells>)
+    return gatherScalarPacked<kCells>(L, a, r, h2);
+  else
+    return gatherScalar<kCells>(L, a, r, h2);
+}
+template <int kCells>
+WetSums gatherWetSingle(const Lattice& L, const WetNodes<float>& g, const Vec3& r, double h2) {
+  if constexpr (kPackedRows<kCells>)
+    return gatherWetPacked<kCells>(L, g, r, h2);
+  else
+    return gatherWet<kCells>(L, g, r, h2);
+}
+
 /// The own strand's share of the lattice sums for particle i: over the strand's particles j
 /// (i included), W~_ij = sum over the 8 nodes x_n of j's cell of t_jn W(|p_i - x_n|), the
 /// functional the lattice applies to one particle, summed as V_j W~_ij and V_j sigma_j W~_ij
@@ -222,6 +409,68 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, int b
   share.weight = w_sum;
   share.pull = Vec3(px, py, pz);
   return share;
+}
+
+/// Lanes of the float own-strand pass: one register of floats.
+typedef float OwnLanes __attribute__((vector_size(4 * kCohesionFloatLanes)));
+
+/// ownStrandShare in single precision for every particle i of the strand [begin, end), stored in
+/// g->own_*_f. The particles i sit in lanes and the strand's particles j come one at a time, so
+/// every lane sums its own j in order and no horizontal sum is needed (with j in lanes, the 16-lane
+/// reductions of 4 sums cost as much as the 2 vector iterations of a 32-particle strand). Lengths
+/// are in lattice units (divided by c), so q and the kernel are O(1) and the sums scale back by
+/// c^6 and c^7. The corner offsets are formed as (k_j - k_i) - t_i: the cell difference is an
+/// exact integer in float, so each offset carries one rounding of its own size (relative 6e-8),
+/// not one of the lattice coordinates. Lanes past the strand's end read the next strand (or the
+/// arrays' padding) and are not stored.
+void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int end) {
+  typedef OwnLanes V;
+  constexpr int kW = kCohesionFloatLanes;
+  const float* __restrict kx = g->kx_f.data();
+  const float* __restrict ky = g->ky_f.data();
+  const float* __restrict kz = g->kz_f.data();
+  const float* __restrict tx = g->tx_f.data();
+  const float* __restrict ty = g->ty_f.data();
+  const float* __restrict tz = g->tz_f.data();
+  const float* __restrict vol = g->volume_f.data();
+  const float* __restrict wet = g->wet_share_f.data();
+  const double c2 = L.c * L.c;
+  const float h2 = static_cast<float>(double(L.cells * L.cells));
+  const float ka = static_cast<float>(L.ka / c2), kb = static_cast<float>(L.kb / (c2 * c2));
+  const V zero = {};
+  for (int i0 = begin; i0 < end; i0 += kW) {
+    const V kxi = loadLanes<V>(kx + i0), kyi = loadLanes<V>(ky + i0), kzi = loadLanes<V>(kz + i0);
+    const V txi = loadLanes<V>(tx + i0), tyi = loadLanes<V>(ty + i0), tzi = loadLanes<V>(tz + i0);
+    V w_sum = zero, px = zero, py = zero, pz = zero;
+    for (int j = begin; j < end; ++j) {
+      const V ex = (kx[j] - kxi) - txi, ey = (ky[j] - kyi) - tyi, ez = (kz[j] - kzi) - tzi;
+      const V x2[2] = {ex * ex, (ex + 1.0f) * (ex + 1.0f)},
+              y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
+              z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
+      const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
+                  wz[2] = {1.0f - tz[j], tz[j]};
+      V wt = zero;
+      for (int az = 0; az < 2; ++az)
+        for (int ay = 0; ay < 2; ++ay)
+          for (int ax = 0; ax < 2; ++ax) {
+            V q = h2 - (x2[ax] + y2[ay] + z2[az]);
+            q = q > zero ? q : zero;
+            wt += (wx[ax] * wy[ay] * wz[az]) * (q * (q * q + ka * q + kb));
+          }
+      const V ws = wet[j] * wt;
+      w_sum += vol[j] * wt;
+      px += ws * (ex + tx[j]);  // (p_j - p_i) / c = (k_j - k_i) + t_j - t_i
+      py += ws * (ey + ty[j]);
+      pz += ws * (ez + tz[j]);
+    }
+    const int count = std::min(kW, end - i0);
+    for (int l = 0; l < count; ++l) {
+      g->own_weight_f[i0 + l] = w_sum[l];
+      g->own_px_f[i0 + l] = px[l];
+      g->own_py_f[i0 + l] = py[l];
+      g->own_pz_f[i0 + l] = pz[l];
+    }
+  }
 }
 
 /// Splats every particle onto the 8 nodes of its cell: add(j, node, kx, ky, kz, t) with the
@@ -301,6 +550,12 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tx[j] = fx - g.kx[j];
     g.ty[j] = fy - g.ky[j];
     g.tz[j] = fz - g.kz[j];
+    g.kx_f[j] = static_cast<float>(g.kx[j]);
+    g.ky_f[j] = static_cast<float>(g.ky[j]);
+    g.kz_f[j] = static_cast<float>(g.kz[j]);
+    g.tx_f[j] = static_cast<float>(g.tx[j]);
+    g.ty_f[j] = static_cast<float>(g.ty[j]);
+    g.tz_f[j] = static_cast<float>(g.tz[j]);
   }
 
   // Pass 1: mass to the nodes, density and volume of every particle.
@@ -314,7 +569,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
   for (int i = 0; i < n; ++i) {
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
-    const double rho = single ? gatherScalar<kCells>(L, g.scalar_f.data(), ri, h2)
+    const double rho = single ? gatherScalarSingle<kCells>(L, g.scalar_f.data(), ri, h2)
                               : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
     state->density[i] = norm * rho;
     g.volume[i] = model.mass_kg[i] / state->density[i];
@@ -323,7 +578,11 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
     zero(v, nodes, threads);
-  for (int j = 0; j < n; ++j) g.wet_share[j] = g.volume[j] * state->saturation[j];
+  for (int j = 0; j < n; ++j) {
+    g.wet_share[j] = g.volume[j] * state->saturation[j];
+    g.volume_f[j] = static_cast<float>(g.volume[j]);
+    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
+  }
   splat(L, g, n, threads, [&](int j, int64_t node, int64_t kx, int64_t ky, int64_t kz, double t) {
     g.scalar[node] += t * g.volume[j];
     const double vs = g.wet_share[j];
@@ -344,6 +603,17 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     toSingle(g.qy, &g.qy_f, nodes, threads);
     toSingle(g.qz, &g.qz_f, nodes, threads);
   }
+  // The own strands' shares in float, a strand at a time (strands with a wet particle only).
+  if (single) {
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
+    for (int s = 0; s < model.strandCount(); ++s) {
+      const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+      bool wet_strand = false;
+      for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
+      if (wet_strand) ownStrandSharesSingle(L, &g, begin, end);
+    }
+  }
+  const double c6 = L.c * L.c * L.c * L.c * L.c * L.c;  // the float shares' lattice units
   const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
                               g.qy_f.data(), g.qz_f.data()};
   int clumped = 0;
@@ -352,16 +622,24 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
     // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
-    WetSums all = single ? gatherWet<kCells>(L, wet_f, ri, h2) : gatherWet<kCells>(L, wet, ri, h2);
+    WetSums all =
+        single ? gatherWetSingle<kCells>(L, wet_f, ri, h2) : gatherWet<kCells>(L, wet, ri, h2);
     // The own strand (particle i included) through the same functional, subtracted.
     const int s = static_cast<int>(state->grid.strand_of[i]);
     const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
-    const WetSums own = ownStrandShare(L, g, begin, end, i, h2);
-    // Float round-off in the all-strand sums is ~1e-6 of them: where the other strands' share is
-    // below 1e-3 of the own strand's it would be a large part of the difference; gather again in
-    // double there.
-    if (single && !(all.weight - own.weight > kSingleGuard * own.weight))
+    WetSums own;
+    if (single) {
+      own.weight = c6 * double(g.own_weight_f[i]);
+      own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
+    } else {
+      own = ownStrandShare(L, g, begin, end, i, h2);
+    }
+    // Float round-off in either sum is ~1e-6 of it: where the other strands' share is below 1e-3
+    // of the own strand's it would be a large part of the difference; both again in double there.
+    if (single && !(all.weight - own.weight > kSingleGuard * own.weight)) {
       all = gatherWet<kCells>(L, wet, ri, h2);
+      own = ownStrandShare(L, g, begin, end, i, h2);
+    }
     double weight_sum = all.weight - own.weight;
     // Round-off of the cancellation: no other strand within reach.
     if (!(weight_sum > 1e-9 * own.weight)) continue;

@@ -14,9 +14,10 @@
 // Splatting runs in slabs of node layers, one per thread, each adding in particle order (so every
 // node sums in the same order as a serial loop), and each particle's gather writes only its own
 // p^w: the result is bit-identical for any thread count. With grid_single_precision the gathers
-// read float copies of the node sums (8 lanes per AVX2 register instead of 4 doubles) and the
-// particles where the own-strand cancellation would expose float round-off (other-strand weight
-// below 1e-3 of the own strand's) are gathered again in double.
+// read float copies of the node sums (8 lanes per AVX2 register instead of 4 doubles), the own
+// strand's share is summed in float in lattice units, and the particles where the own-strand
+// cancellation would expose float round-off (other-strand weight below 1e-3 of the own
+// strand's) have both sums redone in double.
 #pragma once
 
 #include <cstddef>
@@ -34,6 +35,15 @@ constexpr size_t kMaxCohesionGridNodes = size_t{1} << 23;
 /// Nodes allocated past the lattice: a row is read in vectors of 8 lanes, the lanes past its end
 /// weighted 0.
 constexpr size_t kCohesionGridPadding = 8;
+
+/// Lanes of one register of floats: the float own-strand sums and the packed gathers use it, and
+/// the float per-particle arrays carry as many particles past the last one for the last strand's
+/// lanes.
+#ifdef __AVX512F__
+constexpr int kCohesionFloatLanes = 16;
+#else
+constexpr int kCohesionFloatLanes = 8;
+#endif
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
 /// strand's (strain-limited) length of its root, and the roots within their rest bounding

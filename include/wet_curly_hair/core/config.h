@@ -152,10 +152,11 @@ struct CohesionConfig {
   /// grow with the number of neighbours (README "Cohesion evaluation": error and cost).
   std::string evaluation = "exact";
   int grid_cells_per_radius = 4;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
-  /// "grid": the gathers read single-precision copies of the node sums and evaluate the kernel
-  /// in float (twice the SIMD lanes); particles whose other-strand weight is below 1e-3 of their
-  /// own strand's, where float round-off would dominate the own-strand cancellation, are
-  /// gathered again in double. Chosen by measurement (README "Cohesion evaluation").
+  /// "grid": the gathers read single-precision copies of the node sums and, like the own-strand
+  /// share, evaluate the kernel in float (twice the SIMD lanes); particles whose other-strand
+  /// weight is below 1e-3 of their own strand's, where float round-off would dominate the
+  /// own-strand cancellation, have both sums redone in double. Chosen by measurement (README
+  /// "Cohesion evaluation").
   bool grid_single_precision = true;
   bool validate(const std::string& prefix, std::string* why) const;
 };

@@ -81,6 +81,13 @@ struct CohesionNodeGrid {
   std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
   std::vector<double> kx, ky, kz;  ///< lowest node of the particle's cell (integers).
   std::vector<double> tx, ty, tz;  ///< trilinear fractions in the cell, [0, 1).
+  /// Single-precision copies of kx.., tx.., volume and wet_share, read by the float own-strand
+  /// sums (in lattice units: cell indices are exact in float, fractions lose nothing that matters).
+  /// Padded by kCohesionFloatLanes particles (zeros).
+  std::vector<float> kx_f, ky_f, kz_f, tx_f, ty_f, tz_f, volume_f, wet_share_f;
+  /// The own strand's share of each particle's sums, in float and lattice units (weight / c^6,
+  /// pull / c^7).
+  std::vector<float> own_weight_f, own_px_f, own_py_f, own_pz_f;
   void resize(size_t nodes, int particles);
 };
 
