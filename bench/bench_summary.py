@@ -206,7 +206,7 @@ def target(out, t):
     full = [r for r in runs if r["cohesion"] != "off"]
     if full:
         table(full, "Full wet model: the dynamics plus the per-frame cohesion display pass (exact, "
-              "or the lattice at 4, 3, 2 nodes per radius, float gathers; grid4_double: double), "
+              "or the lattice at 4, 3, 2 nodes per radius, in float; grid4_double: in double), "
               "errors of the output positions p^w:\n")
 
 
