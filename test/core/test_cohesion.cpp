@@ -175,7 +175,7 @@ TEST(CohesionGrid, MatchesExactOnAWetCurlyScene) {
 }
 
 TEST(CohesionGrid, SinglePrecisionMatchesDoubleFarBelowTheLatticeError) {
-  // The float gathers against the double ones on the same lattice, with and without the
+  // The float lattice (gathers and own-strand shares) against the double one, with and without the
   // particle's own weight (without it the Shepard denominator is the other-strand weight
   // alone, where round-off would show first). The lattice's own error here is 0.130 mm RMS and
   // 1.44 mm max (MatchesExactOnAWetCurlyScene); float round-off is ~1e-7 of the sums.
