@@ -313,10 +313,15 @@ void WetCurlyHairNode::advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lo
     }
   }
   if (lookup.ok && !pose_ever_) {
-    // First pose (at start, or after time jumped back): start the hair at rest on it.
+    // First pose (at start, or after time jumped back): start the hair at rest on it, keeping
+    // the saturation set so far (a set_saturation answered with success before tf2 had the head
+    // must not be undone by the pose arriving; after a time jump the reset has already put the
+    // scene's ramp back). A one-off copy, outside the step.
     pose_ever_ = true;
     sim_ns_ = t_end_ns;
+    const std::vector<double> saturation = state_.saturation;
     resetHairLocked(lookup.pose, "head pose received");
+    state_.saturation = saturation;
     ROS_INFO("head pose %s -> %s received at t = %.3f s: hair placed on the head",
              config_.world_frame.c_str(), config_.head_frame.c_str(), t_end_ns * 1e-9);
     publishStrandsLocked();

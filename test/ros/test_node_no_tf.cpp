@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "ros_test_helpers.h"
+#include "wet_curly_hair/SetSaturation.h"
 
 using wch_test::Latest;
 using wet_curly_hair::Status;
@@ -35,6 +36,14 @@ TEST(NodeWithoutTf, KeepsRunningReportsItAndPicksThePoseUp) {
   EXPECT_EQ(wch_test::strandsProblem(before), "");
   EXPECT_EQ(before.header.frame_id, "map");
   const uint32_t resets_before = before.reset_count;
+  // A saturation set before the head exists must survive the hair being placed on it.
+  wet_curly_hair::SetSaturation sat;
+  sat.request.strands = {0};
+  sat.request.root_value = 0.25f;
+  sat.request.tip_value = 0.75f;
+  ASSERT_TRUE(ros::service::call("/wet_curly_hair/set_saturation", sat));
+  ASSERT_TRUE(sat.response.success) << sat.response.message;
+  const uint32_t per_strand = before.strand_offsets[1] - before.strand_offsets[0];
 
   // 2. The head appears at (0.5, -0.2, 1.4), turned 90 degrees about z.
   std::atomic<bool> broadcasting{true};
@@ -64,6 +73,8 @@ TEST(NodeWithoutTf, KeepsRunningReportsItAndPicksThePoseUp) {
   Strands after;
   ASSERT_TRUE(strands.next(10.0, &after));
   EXPECT_GT(after.reset_count, resets_before) << "the hair was not placed on the new pose";
+  EXPECT_NEAR(after.saturation[0], 0.25, 1e-3) << "placing the hair undid set_saturation";
+  EXPECT_NEAR(after.saturation[per_strand - 1], 0.75, 1e-3) << "placing the hair undid it";
   EXPECT_NEAR(after.head_pose.position.x, 0.5, 1e-9);
   EXPECT_NEAR(after.head_pose.position.y, -0.2, 1e-9);
   EXPECT_NEAR(after.head_pose.position.z, 1.4, 1e-9);

@@ -94,17 +94,27 @@ class PythonClient(unittest.TestCase):
         r = self.sat(req)
         self.assertTrue(r.success, r.message)
         self.assertEqual(r.particles_changed, 2 * 12)
+        # A message published just before the call can still reach the callback after it (the
+        # subscriber's thread): wait for the first one that carries the change, then check that
+        # the next one keeps it (one connection delivers in order).
+        m = self.strands.next(20.0, lambda m: abs(m.saturation[11] - 1.0) < 1e-6)
+        self.assertIsNotNone(m, "the tip of strand 0 never reached saturation 1")
+        self.assertEqual(m.saturation[12], 0.0)  # root of strand 1
         m = self.strands.next(20.0)
         self.assertAlmostEqual(m.saturation[11], 1.0, places=6)  # tip of strand 0
-        self.assertEqual(m.saturation[12], 0.0)  # root of strand 1
+        self.assertEqual(m.saturation[12], 0.0)
         bad = self.sat(SetSaturationRequest(strands=[99], root_value=0.5, tip_value=0.5))
         self.assertFalse(bad.success)
         self.assertIn("99", bad.message)
+        g = self.get(names=["saturation.root", "saturation.tip"])
+        self.assertNotAlmostEqual(g.values[1], 1.0, places=6)  # else the reset would not show
         t = self.reset()
         self.assertTrue(t.success, t.message)
+        # back to the scene's initial root-to-tip ramp (the same in-flight message caveat)
+        m = self.strands.next(20.0, lambda m: abs(m.saturation[11] - g.values[1]) < 1e-6)
+        self.assertIsNotNone(m, "the tip of strand 0 never went back to the scene's ramp")
+        self.assertAlmostEqual(m.saturation[0], g.values[0], places=6)
         m = self.strands.next(20.0)
-        # back to the scene's initial root-to-tip ramp
-        g = self.get(names=["saturation.root", "saturation.tip"])
         self.assertAlmostEqual(m.saturation[0], g.values[0], places=6)
         self.assertAlmostEqual(m.saturation[11], g.values[1], places=6)
 
