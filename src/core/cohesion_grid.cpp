@@ -535,6 +535,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const Vec3List& p = state->position;
   const int n = model.particleCount();
   const double h = cfg.radius_m, h2 = h * h;
+  const bool single = cfg.grid_single_precision;
   // Every particle's position on the lattice, cell and trilinear fractions, once: the splats
   // and the own-strand shares use them.
 #pragma omp parallel for num_threads(threads) schedule(static)
@@ -550,6 +551,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tx[j] = fx - g.kx[j];
     g.ty[j] = fy - g.ky[j];
     g.tz[j] = fz - g.kz[j];
+    if (!single) continue;  // the float copies are read by the float own-strand shares only
     g.kx_f[j] = static_cast<float>(g.kx[j]);
     g.ky_f[j] = static_cast<float>(g.ky[j]);
     g.kz_f[j] = static_cast<float>(g.kz[j]);
@@ -564,7 +566,6 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.scalar[node] += t * model.mass_kg[j];
   });
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
-  const bool single = cfg.grid_single_precision;
   if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
 #pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
   for (int i = 0; i < n; ++i) {
@@ -580,6 +581,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     zero(v, nodes, threads);
   for (int j = 0; j < n; ++j) {
     g.wet_share[j] = g.volume[j] * state->saturation[j];
+    if (!single) continue;
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   }
