@@ -1,5 +1,5 @@
-// Pieces of the substep shared by the scalar strand path (solver.cpp) and the strand-lane block
-// path (solver_lanes.cpp). Private to the core library.
+// Pieces of the step shared by solver.cpp and the strand-block stepper (strand_block.h).
+// Private to the core library.
 #pragma once
 
 #include <cstdint>
@@ -44,6 +44,26 @@ struct SubstepMotion {
   Vec3 head_velocity = Vec3::Zero();  ///< velocity of the head origin.
 };
 
+/// What a step does, resolved once per step from the configuration's strings and the substep.
+struct SolverPlan {
+  double theta = 0.0;             ///< integratorTheta; 0 for the explicit method.
+  bool implicit = false;          ///< theta > 0.
+  bool curl_spring = true;        ///< CurlConfig::mode "spring" (else "literal").
+  bool inelastic_limit = false;   ///< StretchConfig::limit_velocity "inelastic".
+  bool force_cohesion = false;    ///< CohesionConfig::mode "lin" or "kim".
+  bool lanes = true;              ///< IntegratorConfig::strand_lanes.
+  int lane_width = 8;             ///< strands per block (IntegratorConfig::laneWidth()).
+  bool lane_float = true;         ///< the lanes compute in float.
+  int damping_passes = 1;         ///< explicit damping passes (dampingPassCount).
+};
+SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h);
+
+/// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
+/// (the eq. 13 velocity factors).
+void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
+                       const StrandFlags& flags, double h, const HairState& state,
+                       StrandScratch* scratch);
+
 /// Eqs. (7)-(8), A8: moves strand's curl rotation M toward the one taking its helix axis onto the
 /// root-to-tip direction (time constant CurlConfig::rotation_time_constant_s); kept when the
 /// strand curls back onto its root.
@@ -55,43 +75,26 @@ SubstepMotion substepMotion(const StepInputs& inputs, double s0, double s1, doub
 /// True when eq. (13) changes the velocities of a strand with these flags.
 bool stiffnessActive(const SolverConfig& config, const StrandFlags& flags);
 
-/// Head collision (§6) of particles 1..n-1 of one strand: projection to the offset surface,
-/// inelastic, Coulomb friction, the head's velocity at the particle from the two poses.
-/// Returns the contacts.
-uint64_t collideHeadParticles(const HairModel& model, const CollisionConfig& config,
-                              const SubstepMotion& motion, double h, Vec3* p, Vec3* v, int n);
-
-/// The same against the (static, world-frame) external obstacles.
-uint64_t collideObstacleParticles(const Obstacles& obstacles, const ObstacleCollisionConfig& config,
-                                  Vec3* p, Vec3* v, int n);
-
-/// Strain limiting root -> tip with velocity correction (Selle 2008, §2.2b). Returns the edges it
-/// projected; the largest strain it found goes to *max_strain.
-uint64_t limitStrainEdges(const StretchConfig& config, const double* rest, double h, Vec3* p,
-                          Vec3* v, int n, double* max_strain);
-
-/// Further collision + limit rounds after a substep's first (CollisionConfig::constraint_rounds):
-/// only where something touched and the limit then moved a particle. Returns the rounds run.
-uint64_t extraConstraintRounds(const HairModel& model, const SolverConfig& config,
-                               const Obstacles* obstacles, bool obstacle_collision,
-                               const SubstepMotion& motion, const double* rest, double h,
-                               uint64_t touched, uint64_t projected, Vec3* p, Vec3* v, int n);
-
-/// The widest block of strands advanced together, one per SIMD lane, by stepStrandBlock.
+/// The widest block of strands advanced together, one per SIMD lane.
 constexpr int kMaxStrandLanes = 16;
 
 /// The strands from first_strand on (at most width, fewer in the last block) when they all have
 /// the same particle count (at least 2), so that they can run as one block; 0 when they cannot.
 int blockStrands(const HairModel& model, int first_strand, int width);
 
-/// All nsub substeps of a step for the block of `active` (at most IntegratorConfig::laneWidth())
-/// strands starting at first_strand (flags: one per strand), as substepStrand would advance each
-/// of them, in the configured lane layout; a partial block runs with the lanes beyond it
-/// repeating its last strand, in the half-width layout of the same precision when it fits
-/// (solver_lanes.cpp). `scratch` is the thread's; returns the largest strain before limiting.
-double stepStrandBlock(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                       int first_strand, int active, const StrandFlags* flags, int nsub, double h,
-                       HairState* state, StrandScratch* scratch, StepStats* stats);
+/// Substeps k_begin .. k_end - 1 of a step of nsub substeps for the block of `active` strands
+/// from first_strand (at most `width`; flags: one per lane, the padding lanes repeating the last
+/// strand's) in lanes of `width` doubles (1: one strand at a time, the reference path; 4; 8) or
+/// floats (8, 16): strand_block.h, instantiated in strand_block_double.cpp and
+/// strand_block_float.cpp. `scratch` is the thread's; returns the largest strain before limiting.
+double stepStrandBlockDouble(int width, const HairModel& model, const SolverConfig& config,
+                             const SolverPlan& plan, const StepInputs& inputs, int first_strand,
+                             int active, const StrandFlags* flags, int k_begin, int k_end, int nsub,
+                             double h, HairState* state, StrandScratch* scratch, StepStats* stats);
+double stepStrandBlockFloat(int width, const HairModel& model, const SolverConfig& config,
+                            const SolverPlan& plan, const StepInputs& inputs, int first_strand,
+                            int active, const StrandFlags* flags, int k_begin, int k_end, int nsub,
+                            double h, HairState* state, StrandScratch* scratch, StepStats* stats);
 
 }  // namespace detail
 }  // namespace wet_curly_hair

@@ -1,8 +1,10 @@
-// Frames parallel-transported along the smoothed curve (Iben et al. 2013; method.md §2.4, §10.5).
+// Frames parallel-transported along the smoothed curve (Iben et al. 2013; docs/physics.md §2.4, §10.5),
+// generic over the lane scalar S (lane_math.h) with Eigen forms for callers that speak Eigen.
 #pragma once
 
 #include <cmath>
 
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/types.h"
 
 namespace wet_curly_hair {
@@ -11,69 +13,112 @@ namespace wet_curly_hair {
 constexpr double kDirectionEpsilon = 1e-12;
 
 /// Any unit vector perpendicular to unit vector a.
-inline Vec3 anyPerpendicular(const Vec3& a) {
+WCH_INLINE Vec3 anyPerpendicular(const Vec3& a) {
   const Vec3 helper = std::abs(a.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
   return a.cross(helper).normalized();
 }
 
-/// The minimal rotation taking unit vector a onto unit vector b:
-/// R = I + [a x b]_x + [a x b]_x^2 / (1 + a.b), the 1/(1+c) form that has no cancellation at
-/// small angles; a rotation by pi about any perpendicular axis when b is opposite to a.
-inline Mat3 minimalRotation(const Vec3& a, const Vec3& b) {
-  const double c = a.dot(b);
-  auto rodrigues = [](const Vec3& from, const Vec3& to, double cos_angle) {
-    const Vec3 v = from.cross(to);
-    Mat3 vx;
-    vx << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-    return Mat3(Mat3::Identity() + vx + vx * vx / (1.0 + cos_angle));
-  };
-  if (c < -0.99) {
-    // Nearly opposite: a half turn about an axis perpendicular to a, then the small minimal
-    // rotation from -a to b (exact, where 1 / (1 + c) alone would lose all precision).
-    const Vec3 n = anyPerpendicular(a);
-    const Mat3 half_turn = 2.0 * n * n.transpose() - Mat3::Identity();
-    return rodrigues(-a, b, -c) * half_turn;
-  }
-  return rodrigues(a, b, c);
+/// I + [v]_x + [v]_x^2 / (1 + c), v = from x to, c = from . to: the rotation taking unit
+/// `from` onto unit `to` in the 1/(1+c) form, which has no cancellation at small angles
+/// (physics.md §10.5); loses all precision as the two become opposite (minimalRotation).
+template <typename S>
+WCH_INLINE M33<S> rodrigues(const V3<S>& from, const V3<S>& to, const S& c) {
+  const V3<S> v = cross(from, to);
+  const S zero = splat<S>(0.0);
+  M33<S> vx;
+  vx.m[0][0] = zero, vx.m[0][1] = -v.z, vx.m[0][2] = v.y;
+  vx.m[1][0] = v.z, vx.m[1][1] = zero, vx.m[1][2] = -v.x;
+  vx.m[2][0] = -v.y, vx.m[2][1] = v.x, vx.m[2][2] = zero;
+  const M33<S> vx2 = vx * vx;
+  const S s = splat<S>(1.0) + c;
+  M33<S> r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r.m[i][j] = vx.m[i][j] + vx2.m[i][j] / s;
+  for (int i = 0; i < 3; ++i) r.m[i][i] = splat<S>(1.0) + r.m[i][i];
+  return r;
 }
 
-/// A right-handed orthonormal frame whose first column is unit `tangent` and whose second column
-/// is `hint` made perpendicular to it (any perpendicular when hint is parallel to the tangent).
-inline Mat3 frameFromTangent(const Vec3& tangent, const Vec3& hint) {
-  const Vec3 t = tangent.normalized();
-  Vec3 n = hint - hint.dot(t) * t;
-  if (n.norm() < 1e-9) n = anyPerpendicular(t);
-  n.normalize();
-  Mat3 f;
-  f.col(0) = t;
-  f.col(1) = n;
-  f.col(2) = t.cross(n);
+/// Below this cosine two unit vectors count as opposite for minimalRotation.
+constexpr double kOppositeCosine = -0.99;
+
+/// minimalRotation's rare branch, for nearly opposite unit vectors: a half turn about an axis
+/// perpendicular to a, then the small minimal rotation from -a to b (exact, where 1 / (1 + c)
+/// alone would lose all precision).
+WCH_INLINE Mat3 minimalRotationNearlyOpposite(const Vec3& a, const Vec3& b) {
+  const Vec3 n = anyPerpendicular(a);
+  const Mat3 half_turn = 2.0 * n * n.transpose() - Mat3::Identity();
+  return toEigen(rodrigues(toV3(-a), toV3(b), -a.dot(b))) * half_turn;
+}
+
+/// The minimal rotation taking unit vector a onto unit vector b (rodrigues), and a rotation by
+/// pi about a perpendicular axis composed with a small one where b is nearly opposite to a.
+template <typename S>
+WCH_INLINE M33<S> minimalRotation(const V3<S>& a, const V3<S>& b) {
+  const S c = dot(a, b);
+  M33<S> r = rodrigues(a, b, c);
+  patchLanes(c < splat<S>(kOppositeCosine), [&](int l) {
+    setLane(&r, l, minimalRotationNearlyOpposite(lane(a, l), lane(b, l)));
+  });
+  return r;
+}
+WCH_INLINE Mat3 minimalRotation(const Vec3& a, const Vec3& b) {
+  return toEigen(minimalRotation(toV3(a), toV3(b)));
+}
+
+/// A right-handed orthonormal frame whose first column is `tangent` normalised and whose second
+/// column is `hint` made perpendicular to it (any perpendicular when hint is parallel to it).
+template <typename S>
+WCH_INLINE M33<S> frameFromTangent(const V3<S>& tangent, const V3<S>& hint) {
+  const V3<S> t = tangent / vsqrt(dot(tangent, tangent));
+  V3<S> n = hint - dot(hint, t) * t;
+  const S n_len = vsqrt(dot(n, n));
+  n = n / n_len;
+  patchLanes(n_len < splat<S>(1e-9),
+             [&](int l) { setLane(&n, l, anyPerpendicular(lane(t, l))); });
+  const V3<S> b = cross(t, n);
+  M33<S> f;
+  f.m[0][0] = t.x, f.m[1][0] = t.y, f.m[2][0] = t.z;
+  f.m[0][1] = n.x, f.m[1][1] = n.y, f.m[2][1] = n.z;
+  f.m[0][2] = b.x, f.m[1][2] = b.y, f.m[2][2] = b.z;
   return f;
+}
+WCH_INLINE Mat3 frameFromTangent(const Vec3& tangent, const Vec3& hint) {
+  return toEigen(frameFromTangent(toV3(tangent), toV3(hint)));
 }
 
 /// Re-orthonormalise a nearly orthonormal frame (Gram-Schmidt on the tangent first).
-inline Mat3 orthonormalize(const Mat3& f) { return frameFromTangent(f.col(0), f.col(1)); }
+template <typename S>
+WCH_INLINE M33<S> orthonormalize(const M33<S>& f) {
+  return frameFromTangent(column(f, 0), column(f, 1));
+}
+WCH_INLINE Mat3 orthonormalize(const Mat3& f) { return toEigen(orthonormalize(toM33(f))); }
 
-/// Parallel transport of the root frame along the smoothed differences d (method.md §2.4).
-/// frames[0] = root; for i >= 1, frames[i] = R_min(T_{i-1} -> T_i) frames[i-1] with
-/// T_i = d_{i-1} / |d_{i-1}|, so edge e_i gets a frame that depends on upstream geometry only.
-/// When |d_{i-1}| vanishes (a strand folding back on itself) the previous frame is kept.
-/// Output: `edge_count` frames, one per edge.
-inline void transportFrames(const Mat3& root, const Vec3* d, int edge_count, Mat3* frames) {
+/// One edge of the parallel transport of the root frame along the smoothed differences d
+/// (physics.md §2.4): frame_i = R_min(T_{i-1} -> T_i) frame_{i-1}, T_i = d_{i-1} / |d_{i-1}|, so
+/// edge e_i gets a frame that depends on upstream geometry only. Where |d_{i-1}| vanishes (a
+/// strand folding back on itself) the frame and tangent are kept. On entry *frame and *tangent
+/// are edge i-1's; on return edge i's.
+template <typename S>
+WCH_INLINE void transportFrame(const V3<S>& d_before, int i, M33<S>* frame, V3<S>* tangent) {
+  const S len = vsqrt(dot(d_before, d_before));
+  const auto keep = len < splat<S>(kDirectionEpsilon);
+  const V3<S> t = d_before / len;
+  M33<S> next = minimalRotation(*tangent, t) * *frame;
+  // Round-off drift is removed every 16 edges; in double it stays below 1e-14 in between.
+  if ((i & 15) == 0) next = orthonormalize(next);
+  *frame = select(keep, *frame, next);
+  *tangent = select(keep, *tangent, t);
+}
+
+/// The frames of all `edge_count` edges: frames[0] = root, then transportFrame edge by edge.
+WCH_INLINE void transportFrames(const Mat3& root, const Vec3* d, int edge_count, Mat3* frames) {
   if (edge_count < 1) return;
   frames[0] = root;
-  Vec3 t_prev = root.col(0);
+  M33<double> frame = toM33(root);
+  V3<double> tangent = column(frame, 0);
   for (int i = 1; i < edge_count; ++i) {
-    const double len = d[i - 1].norm();
-    if (len < kDirectionEpsilon) {
-      frames[i] = frames[i - 1];
-      continue;
-    }
-    const Vec3 t = d[i - 1] / len;
-    frames[i] = minimalRotation(t_prev, t) * frames[i - 1];
-    // Round-off drift is removed every 16 edges; in double it stays below 1e-14 in between.
-    if ((i & 15) == 0) frames[i] = orthonormalize(frames[i]);
-    t_prev = t;
+    transportFrame(toV3(d[i - 1]), i, &frame, &tangent);
+    frames[i] = toEigen(frame);
   }
 }
 

@@ -1,6 +1,6 @@
 // The head as analytic shapes in the head frame (an ellipsoid plus optional capsules for neck
 // and ears), and the particle-vs-signed-distance collision response of Bridson et al.
-// (method.md §6): projection to the offset surface, inelastic normal response, Coulomb friction.
+// (docs/physics.md §6): projection to the offset surface, inelastic normal response, Coulomb friction.
 #pragma once
 
 #include <algorithm>
@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/types.h"
 
 namespace wet_curly_hair {
@@ -21,42 +22,81 @@ struct CapsuleShape {
   double radius_m = 0.0;
 };
 
+/// ellipsoidDistance's rare branch, a point at the centre: leave along the shortest axis.
+WCH_INLINE double ellipsoidCentreDistance(const EllipsoidShape& e, Vec3* normal) {
+  int axis = 0;
+  e.radii_m.minCoeff(&axis);
+  *normal = Vec3::Unit(axis);
+  return -e.radii_m.minCoeff();
+}
+
 /// Signed distance to an ellipsoid, negative inside. There is no closed form; this is the
 /// first-order estimate k0 (k0 - 1) / k1 with k0 = |x/r|, k1 = |x/r^2|, exact on the surface and
 /// on a sphere, within a few per cent near the surface of a head-like ellipsoid (tested). The
 /// gradient direction is the exact surface normal direction x/r^2 of the level set through x.
-inline double ellipsoidDistance(const EllipsoidShape& e, const Vec3& x_head, Vec3* normal) {
-  const Vec3 x = x_head - e.center_m;
-  const Vec3 q = x.cwiseQuotient(e.radii_m);
-  const Vec3 g = q.cwiseQuotient(e.radii_m);
-  const double k0 = q.norm();
-  const double k1 = g.norm();
-  if (k1 < 1e-12) {  // at the centre: leave along the shortest axis
-    int axis = 0;
-    e.radii_m.minCoeff(&axis);
-    *normal = Vec3::Unit(axis);
-    return -e.radii_m.minCoeff();
-  }
+template <typename S>
+WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<S>* normal) {
+  const V3<S> x = x_head - splat3<S>(e.center_m);
+  const V3<S> r = splat3<S>(e.radii_m);
+  const V3<S> q = {x.x / r.x, x.y / r.y, x.z / r.z};
+  const V3<S> g = {q.x / r.x, q.y / r.y, q.z / r.z};
+  const S k0 = vsqrt(dot(q, q));
+  const S k1 = vsqrt(dot(g, g));
   *normal = g / k1;
-  return k0 * (k0 - 1.0) / k1;
+  S dist = k0 * (k0 - splat<S>(1.0)) / k1;
+  patchLanes(k1 < splat<S>(1e-12), [&](int l) {
+    Vec3 n;
+    setLaneValue(&dist, l, ellipsoidCentreDistance(e, &n));
+    setLane(normal, l, n);
+  });
+  return dist;
+}
+
+/// capsuleDistance's rare branch, a point on the axis: leave across the axis.
+WCH_INLINE double capsuleAxisDistance(const CapsuleShape& c, Vec3* normal) {
+  const Vec3 ab = c.b_m - c.a_m;
+  if (ab.squaredNorm() > 0.0) {
+    const Vec3 across = ab.cross(Vec3::UnitZ()).norm() > 1e-9 ? ab.cross(Vec3::UnitZ())
+                                                                : ab.cross(Vec3::UnitX());
+    *normal = across.normalized();
+  } else {
+    *normal = Vec3::UnitZ();
+  }
+  return -c.radius_m;
 }
 
 /// Exact signed distance to a capsule, negative inside.
-inline double capsuleDistance(const CapsuleShape& c, const Vec3& x, Vec3* normal) {
+template <typename S>
+WCH_INLINE S capsuleDistance(const CapsuleShape& c, const V3<S>& x, V3<S>* normal) {
   const Vec3 ab = c.b_m - c.a_m;
   const double len2 = ab.squaredNorm();
-  const double s = len2 > 0.0 ? std::clamp((x - c.a_m).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  const Vec3 d = x - (c.a_m + s * ab);
-  const double n = d.norm();
-  if (n < 1e-12) {
-    *normal = len2 > 0.0 ? Vec3(ab.cross(Vec3::UnitZ()).norm() > 1e-9 ? ab.cross(Vec3::UnitZ())
-                                                                       : ab.cross(Vec3::UnitX()))
-                               .normalized()
-                         : Vec3::UnitZ();
-    return -c.radius_m;
-  }
-  *normal = d / n;
-  return n - c.radius_m;
+  const V3<S> a = splat3<S>(c.a_m);
+  S s = splat<S>(0.0);
+  if (len2 > 0.0)
+    s = vmin(vmax(dot(x - a, splat3<S>(ab)) / splat<S>(len2), splat<S>(0.0)), splat<S>(1.0));
+  const V3<S> d = x - (a + s * splat3<S>(ab));
+  const S len = vsqrt(dot(d, d));
+  *normal = d / len;
+  S dist = len - splat<S>(c.radius_m);
+  patchLanes(len < splat<S>(1e-12), [&](int l) {
+    Vec3 n;
+    setLaneValue(&dist, l, capsuleAxisDistance(c, &n));
+    setLane(normal, l, n);
+  });
+  return dist;
+}
+
+WCH_INLINE double ellipsoidDistance(const EllipsoidShape& e, const Vec3& x_head, Vec3* normal) {
+  V3<double> n;
+  const double d = ellipsoidDistance(e, toV3(x_head), &n);
+  *normal = toEigen(n);
+  return d;
+}
+WCH_INLINE double capsuleDistance(const CapsuleShape& c, const Vec3& x, Vec3* normal) {
+  V3<double> n;
+  const double d = capsuleDistance(c, toV3(x), &n);
+  *normal = toEigen(n);
+  return d;
 }
 
 /// The head's collision shapes, in the head frame.
@@ -66,40 +106,57 @@ struct HeadShape {
 
   /// Signed distance (m) of head-frame point x to the union of the shapes, with the unit outward
   /// normal of the closest shape.
-  double distance(const Vec3& x, Vec3* normal) const {
-    double best = ellipsoidDistance(ellipsoid, x, normal);
+  template <typename S>
+  WCH_INLINE S distance(const V3<S>& x, V3<S>* normal) const {
+    S best = ellipsoidDistance(ellipsoid, x, normal);
     for (const CapsuleShape& c : capsules) {
-      Vec3 n;
-      const double d = capsuleDistance(c, x, &n);
-      if (d < best) {
-        best = d;
-        *normal = n;
-      }
+      V3<S> n;
+      const S d = capsuleDistance(c, x, &n);
+      const auto closer = d < best;
+      *normal = select(closer, n, *normal);
+      best = select(closer, d, best);
     }
     return best;
+  }
+  double distance(const Vec3& x, Vec3* normal) const {
+    V3<double> n;
+    const double d = distance(toV3(x), &n);
+    *normal = toEigen(n);
+    return d;
   }
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Bridson-style response of one particle to a collider (method.md §6): if the signed distance d
-/// of position x is below the offset delta, x is moved out along the unit normal n to the offset
-/// surface, the approaching normal relative velocity is removed (inelastic) and the tangential
-/// relative velocity is reduced by mu times the removed normal speed (Coulomb; it stops when the
-/// friction would reverse it). The projection adds no velocity, so deep starts do not explode.
-/// v_obstacle is the collider's velocity at x. Returns true when the particle was in contact.
-inline bool collideParticle(double d, const Vec3& n, double delta, double mu,
+/// Bridson-style response of particles to a collider (physics.md §6), on the lanes of `contact`
+/// (signed distance d below the offset delta): x is moved out along the unit normal n to the
+/// offset surface, the approaching normal relative velocity is removed (inelastic) and the
+/// tangential relative velocity is reduced by mu times the removed normal speed (Coulomb; it
+/// stops when the friction would reverse it). The projection adds no velocity, so deep starts
+/// do not explode. v_obstacle is the collider's velocity at x.
+template <typename S>
+WCH_INLINE void collideParticle(const LaneMask<S>& contact, const S& d, const V3<S>& n, double delta,
+                            double mu, const V3<S>& v_obstacle, V3<S>* x, V3<S>* v) {
+  *x = select(contact, *x + (splat<S>(delta) - d) * n, *x);
+  const V3<S> vrel = *v - v_obstacle;
+  const S vn = dot(vrel, n);
+  const auto approaching = contact && (vn < splat<S>(0.0));
+  V3<S> vt = vrel - vn * n;
+  const S vt_len = vsqrt(dot(vt, vt));
+  const S scale =
+      select(vt_len > splat<S>(1e-15),
+             vmax(splat<S>(0.0), splat<S>(1.0) - splat<S>(mu) * (-vn) / vt_len), splat<S>(0.0));
+  vt = scale * vt;
+  *v = select(approaching, v_obstacle + vt, *v);
+}
+
+/// The same for one particle; returns true when it was in contact (d < delta).
+WCH_INLINE bool collideParticle(double d, const Vec3& n, double delta, double mu,
                             const Vec3& v_obstacle, Vec3* x, Vec3* v) {
-  if (d >= delta) return false;
-  *x += (delta - d) * n;
-  const Vec3 vrel = *v - v_obstacle;
-  const double vn = vrel.dot(n);
-  if (vn < 0.0) {
-    Vec3 vt = vrel - vn * n;
-    const double vt_len = vt.norm();
-    const double scale = vt_len > 1e-15 ? std::max(0.0, 1.0 - mu * (-vn) / vt_len) : 0.0;
-    vt *= scale;
-    *v = v_obstacle + vt;
-  }
+  if (!(d < delta)) return false;
+  V3<double> xs = toV3(*x), vs = toV3(*v);
+  collideParticle<double>(true, d, toV3(n), delta, mu, toV3(v_obstacle), &xs, &vs);
+  *x = toEigen(xs);
+  *v = toEigen(vs);
   return true;
 }
 

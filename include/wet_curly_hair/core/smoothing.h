@@ -1,16 +1,17 @@
-// The IIR smoothing filter of Iben et al. 2013, eq. (2) of Kim 2023 (method.md §2.3, A2, A3).
+// The IIR smoothing filter of Iben et al. 2013, eq. (2) of Kim 2023 (docs/physics.md §2.3, A2, A3).
 #pragma once
 
 #include <algorithm>
 #include <cmath>
 
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/types.h"
 
 namespace wet_curly_hair {
 
 /// beta = min(1, 1 - exp(-l / alpha)), with l the mean REST edge length of the strand (A3) and
 /// alpha the smoothing length (m). alpha <= 0 means no smoothing (beta = 1, d_i = e_i).
-inline double smoothingBeta(double mean_rest_edge_m, double alpha_m) {
+WCH_INLINE double smoothingBeta(double mean_rest_edge_m, double alpha_m) {
   if (!(alpha_m > 0.0)) return 1.0;
   return std::min(1.0, 1.0 - std::exp(-mean_rest_edge_m / alpha_m));
 }
@@ -21,9 +22,9 @@ inline double smoothingBeta(double mean_rest_edge_m, double alpha_m) {
 /// A critically damped second-order low pass with unit DC gain: a straight uniform strand is
 /// reproduced exactly. Causal root -> tip: d_i depends on lambda_0 .. lambda_{i+1} only.
 /// Generic over the sample and scalar types: Vec3 with double here, and the strand-lane types
-/// (four strands, each lane with its own beta) in solver_lanes.cpp.
+/// (a block of strands, each lane with its own beta) in strand_block.h.
 template <typename Sample, typename Scalar>
-inline void smoothDifferences(const Sample* lambda, int count, Scalar beta, Sample* d) {
+WCH_INLINE void smoothDifferences(const Sample* lambda, int count, Scalar beta, Sample* d) {
   if (count < 2) return;
   const Scalar f1 = 2.0 * (1.0 - beta);
   const Scalar f2 = (1.0 - beta) * (1.0 - beta);
@@ -39,7 +40,7 @@ inline void smoothDifferences(const Sample* lambda, int count, Scalar beta, Samp
 }
 
 /// Eq. (3): the smoothed curve p'_0 = lambda_0, p'_i = p'_{i-1} + d_{i-1}.
-inline void rebuildCurve(const Vec3& root, const Vec3* d, int count, Vec3* curve) {
+WCH_INLINE void rebuildCurve(const Vec3& root, const Vec3* d, int count, Vec3* curve) {
   if (count < 1) return;
   curve[0] = root;
   for (int i = 1; i < count; ++i) curve[i] = curve[i - 1] + d[i - 1];

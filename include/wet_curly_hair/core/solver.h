@@ -1,4 +1,4 @@
-// The step: a recipe of stages over each strand (method.md §9.2), time injected by the caller.
+// The step: a recipe of stages over each strand (docs/physics.md §9.2), time injected by the caller.
 #pragma once
 
 #include <cstdint>
@@ -94,19 +94,6 @@ struct StrandFlags {
   bool near_obstacle = false;   ///< the strand can reach an obstacle within the margin.
   bool external_force = false;  ///< state->external_force holds cross-strand forces.
 };
-
-/// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
-/// (the eq. 13 velocity factors). Call before substepStrand on a strand.
-void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
-                       const StrandFlags& flags, double h, const HairState& state,
-                       StrandScratch* scratch);
-
-/// Advances one strand by one substep h from time fraction s0 to s1 of the step with the
-/// configured integrator, using `scratch` prepared by prepareStrandStep (exposed for tests).
-/// Returns the largest strain before limiting.
-double substepStrand(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
-                     int strand, const StrandFlags& flags, double s0, double s1, double h,
-                     HairState* state, StrandScratch* scratch, StepStats* stats);
 
 /// Theta of the implicit methods (1 backward Euler, 1/2 midpoint); 0 for "explicit".
 double integratorTheta(const IntegratorConfig& config);

@@ -1,95 +1,220 @@
-// The three curly-hair springs of Iben et al. 2013, eqs. (1), (4), (5) of Kim 2023, as stateless
-// kernels over one segment. Each returns the segment force f; the caller applies the segment
-// convention of method.md §0 / A1: F_i += f, F_{i+1} -= f (restoring for a stretched edge).
+// The three curly-hair springs of Iben et al. 2013, eqs. (1), (4), (5) of Kim 2023, their
+// damping terms, the velocity clamp and the strain limit, and the Jacobian the implicit
+// integrators solve with, as stateless kernels over one segment. Each is written once, generic
+// over the lane scalar S (lane_math.h): the solver calls them on one strand (S = double) and on
+// blocks of strands in SIMD lanes; the Eigen overloads at the end are the same kernels for
+// callers that speak Eigen. Each force kernel returns the segment force f; the caller applies
+// the segment convention of docs/physics.md §0 / A1: F_i += f, F_{i+1} -= f (restoring for a
+// stretched edge).
 #pragma once
 
+#include <algorithm>
+
 #include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/types.h"
 
 namespace wet_curly_hair {
 
+/// Below this length a smoothed difference b has no direction (the core spring is off).
+constexpr double kCoreDirectionEpsilon = 1e-9;
+
 /// Eq. (1), elastic part: k_s (|e| - |e0|) e^. Zero for a degenerate edge.
-inline Vec3 stretchForce(const Vec3& edge, double rest_length, double k_s) {
-  const double len = edge.norm();
-  if (len < kDirectionEpsilon) return Vec3::Zero();
-  return (k_s * (len - rest_length) / len) * edge;
+template <typename S>
+WCH_INLINE V3<S> stretchForce(const V3<S>& edge, const S& rest_length, const S& k_s) {
+  const S len = vsqrt(dot(edge, edge));
+  return select(len < splat<S>(kDirectionEpsilon), zero3<S>(),
+                (k_s * (len - rest_length) / len) * edge);
 }
 
 /// Eq. (1), damping part: c_s (dv . e^) e^, with dv = v_{i+1} - v_i.
-inline Vec3 stretchDampingForce(const Vec3& edge, const Vec3& dv, double c_s) {
-  const double len2 = edge.squaredNorm();
-  if (len2 < kDirectionEpsilon * kDirectionEpsilon) return Vec3::Zero();
-  return (c_s * dv.dot(edge) / len2) * edge;
+template <typename S>
+WCH_INLINE V3<S> stretchDampingForce(const V3<S>& edge, const V3<S>& dv, const S& c_s) {
+  const S len2 = dot(edge, edge);
+  return select(len2 < splat<S>(kDirectionEpsilon * kDirectionEpsilon), zero3<S>(),
+                (c_s * dot(dv, edge) / len2) * edge);
 }
 
-/// Eq. (4), elastic part: k_b (e_i - t_i), with the target t_i = F_i e_i^loc (method.md §2.5).
-inline Vec3 bendForce(const Vec3& edge, const Vec3& target, double k_b) {
+/// Eq. (4), elastic part: k_b (e_i - t_i), with the target t_i = F_i e_i^loc (physics.md §2.5).
+template <typename S>
+WCH_INLINE V3<S> bendForce(const V3<S>& edge, const V3<S>& target, const S& k_b) {
   return k_b * (edge - target);
 }
 
-/// Eq. (4), damping part: c_b (dv - (dv . e^) e^), the relative velocity perpendicular to the edge.
-inline Vec3 bendDampingForce(const Vec3& edge, const Vec3& dv, double c_b) {
-  const double len2 = edge.squaredNorm();
-  if (len2 < kDirectionEpsilon * kDirectionEpsilon) return c_b * dv;
-  return c_b * (dv - (dv.dot(edge) / len2) * edge);
+/// Eq. (4), damping part: c_b (dv - (dv . e^) e^), the relative velocity across the edge.
+template <typename S>
+WCH_INLINE V3<S> bendDampingForce(const V3<S>& edge, const V3<S>& dv, const S& c_b) {
+  const S len2 = dot(edge, edge);
+  return select(len2 < splat<S>(kDirectionEpsilon * kDirectionEpsilon), c_b * dv,
+                c_b * (dv - (dot(dv, edge) / len2) * edge));
 }
 
-/// Eq. (5), elastic part: k_c (|b| - |b0|) b^, b the i-th difference of the alpha_c-smoothed curve.
-/// Guarded: zero when |b| vanishes (flat curls, folded strands; method.md §10.3).
-inline Vec3 coreForce(const Vec3& b, double rest_length, double k_c) {
-  const double len = b.norm();
-  if (len < 1e-9) return Vec3::Zero();
-  return (k_c * (len - rest_length) / len) * b;
+/// Eq. (5), elastic part: k_c (|b| - |b0|) b^, b the i-th difference of the alpha_c-smoothed
+/// curve. Zero when |b| vanishes (flat curls, folded strands; physics.md §10.3).
+template <typename S>
+WCH_INLINE V3<S> coreForce(const V3<S>& b, const S& rest_length, const S& k_c) {
+  const S len = vsqrt(dot(b, b));
+  return select(len < splat<S>(kCoreDirectionEpsilon), zero3<S>(),
+                (k_c * (len - rest_length) / len) * b);
 }
 
-/// Eq. (5), damping part: c_c (nu . b^) b^, nu the smoothed relative velocity zeta(V, alpha_c)_i (A5).
-inline Vec3 coreDampingForce(const Vec3& b, const Vec3& nu, double c_c) {
-  const double len2 = b.squaredNorm();
-  if (len2 < 1e-18) return Vec3::Zero();
-  return (c_c * nu.dot(b) / len2) * b;
+/// Eq. (5), damping part: c_c (nu . b^) b^, nu the smoothed relative velocity zeta(V, alpha_c)_i
+/// (A5).
+template <typename S>
+WCH_INLINE V3<S> coreDampingForce(const V3<S>& b, const V3<S>& nu, const S& c_c) {
+  const S len2 = dot(b, b);
+  return select(len2 < splat<S>(kCoreDirectionEpsilon * kCoreDirectionEpsilon), zero3<S>(),
+                (c_c * dot(nu, b) / len2) * b);
+}
+
+/// Iben §2.2a, inside the damping pass: clamps the axial relative velocity of an edge so that
+/// its length changes by at most `max_axial_speed` (m/s) either way. Returns the new tip-side
+/// velocity (the root side is already final: the sweep runs root -> tip).
+template <typename S>
+WCH_INLINE V3<S> clampAxialRelativeVelocity(const V3<S>& edge, const V3<S>& v_root_side,
+                                        const V3<S>& v_tip_side, const S& max_axial_speed) {
+  const S len = vsqrt(dot(edge, edge));
+  const V3<S> e = edge / len;
+  const S a = dot(v_tip_side - v_root_side, e);
+  const auto short_edge = len < splat<S>(kDirectionEpsilon);
+  const auto above = !short_edge && (a > max_axial_speed);
+  const auto below = !short_edge && !above && (a < -max_axial_speed);
+  const V3<S> r = select(above, v_tip_side - (a - max_axial_speed) * e, v_tip_side);
+  return select(below, v_tip_side - (a + max_axial_speed) * e, r);
+}
+
+/// Selle et al. 2008 biased strain limit (physics.md §2.2b, §3) for one edge, after the position
+/// update: if |p_tip - p_root| exceeds max_length, the tip-side particle is pulled back along
+/// the edge. Returns the displacement of the tip-side particle (zero within the limit).
+template <typename S>
+WCH_INLINE V3<S> limitEdgeLength(const V3<S>& p_root_side, const V3<S>& p_tip_side,
+                             const S& max_length) {
+  const V3<S> e = p_tip_side - p_root_side;
+  const S len = vsqrt(dot(e, e));
+  const auto within = (len <= max_length) || (len < splat<S>(kDirectionEpsilon));
+  return select(within, zero3<S>(), (max_length / len) * e - e);
+}
+
+/// The axial spring f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b) linearised:
+/// d f / d e = k [u u^T + (1 - L / |e|) (I - u u^T)], u = e / |e|, written as
+/// isotropic I + axial u u^T. The transverse term is clamped at zero under compression so that
+/// the implicit system stays positive definite (the usual definiteness fix; the exact force is
+/// still applied). All zero for a degenerate edge.
+template <typename S>
+struct AxialJacobian {
+  V3<S> u;  ///< unit direction (zero when degenerate)
+  S isotropic;
+  S axial;  ///< added along u u^T
+};
+template <typename S>
+WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const S& rest, const S& k,
+                                            double degenerate_length) {
+  const S len = vsqrt(dot(e, e));
+  const auto degenerate = len < splat<S>(degenerate_length);
+  const S zero = splat<S>(0.0);
+  AxialJacobian<S> j;
+  j.u = select(degenerate, zero3<S>(), e / len);
+  j.isotropic = select(degenerate, zero, k * vmax(zero, splat<S>(1.0) - rest / len));
+  j.axial = select(degenerate, zero, k - j.isotropic);
+  return j;
+}
+
+/// What the implicit integrators need of one edge (physics.md §9.2, steps 4-5): the coupling
+/// block G = theta h (C + theta h J) of the block-tridiagonal system, with J = d f_e / d e the
+/// elastic Jacobian and C = d f_damp / d dv the damping one, and the explicit remainder of the
+/// segment force that the block does not carry.
+///  - stretch: k_s (axialSpringJacobian), c_s along the edge;
+///  - bend: k_b I (frames held at the start of the substep), c_b across the edge; the
+///    co-rotation part of the bend damping, -c_b omega x e, is constant in u: explicit;
+///  - core: b_i depends on every edge up to i through the IIR filter; the block carries
+///    core_local_gain times its axial Jacobian along b^ (and the same share of its damping),
+///    the rest of the core damping stays explicit (see coreLocalGain);
+///  - curl spring (A10): k_w sigma I.
+template <typename S>
+struct EdgeImplicitTerms {
+  M33<S> block;        ///< G, added to the pivots of both particles and coupling them.
+  V3<S> explicit_force;  ///< segment force applied explicitly (F_i += f, F_{i+1} -= f).
+};
+struct EdgeImplicitParams {
+  double k_s, k_b, k_c, c_s, c_b, c_c;  ///< stiffness (N/m) and damping (N s/m) of the springs.
+  double theta_h;                       ///< theta times the substep, s.
+};
+template <typename S>
+WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams& q, const V3<S>& e,
+                                              const V3<S>& dv, const S& rest,
+                                              const V3<S>& b, const S& core_rest,
+                                              const V3<S>& nu, const S& core_local_gain,
+                                              const S& curl_stiffness, const V3<S>& omega) {
+  const AxialJacobian<S> stretch = axialSpringJacobian(e, rest, splat<S>(q.k_s), kDirectionEpsilon);
+  const AxialJacobian<S> core =
+      axialSpringJacobian(b, core_rest, splat<S>(q.k_c) * core_local_gain, kDirectionEpsilon);
+  const S th = splat<S>(q.theta_h);
+  const S has_axis = select(dot(stretch.u, stretch.u) > splat<S>(0.0), splat<S>(1.0), splat<S>(0.0));
+  const S alpha = th * (splat<S>(q.c_b) +
+                        th * (stretch.isotropic + core.isotropic + splat<S>(q.k_b) + curl_stiffness));
+  const S beta = th * (has_axis * splat<S>(q.c_s - q.c_b) + th * stretch.axial);
+  const S gamma = th * (splat<S>(q.c_c) * core_local_gain + th * core.axial);
+  EdgeImplicitTerms<S> t;
+  t.block = isotropicPlusDyads(alpha, beta, stretch.u, gamma, core.u);
+  t.explicit_force = splat<S>(-q.c_b) * cross(omega, e);
+  if (q.c_c > 0.0)
+    t.explicit_force += coreDampingForce(b, nu, splat<S>(q.c_c)) -
+                        (splat<S>(q.c_c) * core_local_gain * dot(core.u, dv)) * core.u;
+  return t;
+}
+
+/// The share of the core spring's Jacobian that the implicit block carries. The exact
+/// d b_i / d e_j of the IIR filter (eq. 2) is beta^2 for j = i and a tail over j < i that sums
+/// with it to 1 (unit DC gain): a block-tridiagonal system cannot hold the tail. (1 - beta)^2
+/// sits between the local beta^2 and the smooth-mode 1; it is what the implicit integrators
+/// were measured with (docs/performance.md), and test_springs checks both limits against
+/// finite differences of the filter.
+WCH_INLINE double coreLocalGain(double beta) { return (1.0 - beta) * (1.0 - beta); }
+
+// ------------------------------------------------------------------ Eigen forms
+
+WCH_INLINE Vec3 stretchForce(const Vec3& edge, double rest_length, double k_s) {
+  return toEigen(stretchForce(toV3(edge), rest_length, k_s));
+}
+WCH_INLINE Vec3 stretchDampingForce(const Vec3& edge, const Vec3& dv, double c_s) {
+  return toEigen(stretchDampingForce(toV3(edge), toV3(dv), c_s));
+}
+WCH_INLINE Vec3 bendForce(const Vec3& edge, const Vec3& target, double k_b) {
+  return toEigen(bendForce(toV3(edge), toV3(target), k_b));
+}
+WCH_INLINE Vec3 bendDampingForce(const Vec3& edge, const Vec3& dv, double c_b) {
+  return toEigen(bendDampingForce(toV3(edge), toV3(dv), c_b));
+}
+WCH_INLINE Vec3 coreForce(const Vec3& b, double rest_length, double k_c) {
+  return toEigen(coreForce(toV3(b), rest_length, k_c));
+}
+WCH_INLINE Vec3 coreDampingForce(const Vec3& b, const Vec3& nu, double c_c) {
+  return toEigen(coreDampingForce(toV3(b), toV3(nu), c_c));
+}
+WCH_INLINE Vec3 clampAxialRelativeVelocity(const Vec3& edge, const Vec3& v_root_side,
+                                       const Vec3& v_tip_side, double max_axial_speed) {
+  return toEigen(
+      clampAxialRelativeVelocity(toV3(edge), toV3(v_root_side), toV3(v_tip_side), max_axial_speed));
+}
+WCH_INLINE Vec3 limitEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side, double max_length) {
+  return toEigen(limitEdgeLength(toV3(p_root_side), toV3(p_tip_side), max_length));
 }
 
 /// Energy of the stretch spring, 1/2 k_s (|e| - |e0|)^2 (J).
-inline double stretchEnergy(const Vec3& edge, double rest_length, double k_s) {
+WCH_INLINE double stretchEnergy(const Vec3& edge, double rest_length, double k_s) {
   const double x = edge.norm() - rest_length;
   return 0.5 * k_s * x * x;
 }
 
 /// Energy of the bending spring with frames held fixed, 1/2 k_b |e - t|^2 (J).
-inline double bendEnergy(const Vec3& edge, const Vec3& target, double k_b) {
+WCH_INLINE double bendEnergy(const Vec3& edge, const Vec3& target, double k_b) {
   return 0.5 * k_b * (edge - target).squaredNorm();
 }
 
 /// Energy of the core spring, 1/2 k_c (|b| - |b0|)^2 (J).
-inline double coreEnergy(const Vec3& b, double rest_length, double k_c) {
+WCH_INLINE double coreEnergy(const Vec3& b, double rest_length, double k_c) {
   const double x = b.norm() - rest_length;
   return 0.5 * k_c * x * x;
-}
-
-/// Iben §2.2a, inside the damping pass: clamp the axial relative velocity of edge i so that the
-/// edge length changes by at most `max_axial_speed` (m/s) in either direction. Returns the new
-/// tip-side velocity v_{i+1} (the root side is already final: the sweep runs root -> tip).
-inline Vec3 clampAxialRelativeVelocity(const Vec3& edge, const Vec3& v_root_side,
-                                       const Vec3& v_tip_side, double max_axial_speed) {
-  const double len = edge.norm();
-  if (len < kDirectionEpsilon) return v_tip_side;
-  const Vec3 e = edge / len;
-  const Vec3 dv = v_tip_side - v_root_side;
-  const double a = dv.dot(e);
-  if (a > max_axial_speed) return v_tip_side - (a - max_axial_speed) * e;
-  if (a < -max_axial_speed) return v_tip_side - (a + max_axial_speed) * e;
-  return v_tip_side;
-}
-
-/// Selle et al. 2008 biased strain limit (method.md §2.2b, §3) for one edge, after the position
-/// update: if |p_tip - p_root| exceeds max_length the tip-side particle is pulled back along the
-/// edge. Returns the displacement applied to the tip-side particle (zero when within the limit);
-/// the caller adds displacement / dt to its velocity so positions and velocities stay consistent.
-inline Vec3 limitEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side, double max_length) {
-  const Vec3 e = p_tip_side - p_root_side;
-  const double len = e.norm();
-  if (len <= max_length || len < kDirectionEpsilon) return Vec3::Zero();
-  return e * (max_length / len) - e;
 }
 
 }  // namespace wet_curly_hair

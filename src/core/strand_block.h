@@ -1,0 +1,717 @@
+// The substep on a block of strands, one strand per SIMD lane, generic over the lane scalar S
+// (lane_math.h): S = double is one strand at a time (the reference path), a GCC vector of W
+// doubles or floats is a block of W strands. Every path runs this code; the laws it calls are
+// the kernels of springs.h, frames.h, head_collider.h and wet_kernels.h. Private to the core.
+//
+// Why lanes: the recurrences of a strand run root to tip (IIR smoothing, frame transport, the
+// block-Thomas solve, the strain limit), so they cannot be vectorised along the strand; across
+// strands they are the same operations on independent data. A block is gathered into a
+// structure of arrays once per step, stays in cache through all its substeps (strands couple
+// only through per-step outputs) and is scattered back at the end. Positions in the block are
+// relative to the head's position at the start of the step, so that float keeps 2^-24 of a
+// strand length (~20 nm) wherever the head is; every stage is invariant under the shift and the
+// obstacle field, in world coordinates, is read at position + origin.
+//
+// Lanes from `active` on (the last, partial block of the strands) repeat the last strand: they
+// compute, but write nothing to the state, count nothing and skip the per-lane stages.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <type_traits>
+
+#include "solver_internal.h"
+#include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/head_collider.h"
+#include "wet_curly_hair/core/lane_math.h"
+#include "wet_curly_hair/core/smoothing.h"
+#include "wet_curly_hair/core/springs.h"
+#include "wet_curly_hair/core/wet_kernels.h"
+
+namespace wet_curly_hair {
+namespace detail {
+
+/// The block's structure of arrays, carved from the thread's StrandScratch::lane_buffer.
+template <typename S>
+struct BlockArrays {
+  V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
+  M33<S>*block, *pivot_inverse;
+  S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
+  /// Obstacle distance cache: where each particle's distance was last evaluated, and by how much
+  /// it then exceeded the reach of the obstacle stages (negative: evaluate next time).
+  V3<S>* obstacle_anchor;
+  S* obstacle_slack;
+  /// What the position updates lost to rounding (compensated summation, float layouts).
+  V3<S>* p_carry;
+  /// One lane in double, for the rare extra constraint rounds.
+  V3<double>*p_one, *v_one;
+};
+
+template <typename S>
+BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
+  // Aligned to the vector size for the vector loads; the buffer has room for the widest layout.
+  constexpr size_t kBytes = sizeof(S);
+  char* bytes = reinterpret_cast<char*>(scratch->lane_buffer.data());
+  bytes += (kBytes - reinterpret_cast<uintptr_t>(bytes) % kBytes) % kBytes;
+  const size_t n = scratch->lane_capacity;
+  auto take = [&](size_t scalars) {
+    char* r = bytes;
+    bytes += scalars * n * kBytes;
+    return r;
+  };
+  auto v3 = [&]() { return reinterpret_cast<V3<S>*>(take(3)); };
+  auto m3 = [&]() { return reinterpret_cast<M33<S>*>(take(9)); };
+  auto s1 = [&]() { return reinterpret_cast<S*>(take(1)); };
+  BlockArrays<S> a;
+  a.p = v3(), a.v = v3(), a.f = v3(), a.d = v3(), a.b = v3(), a.nu = v3(), a.v_start = v3();
+  a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3();
+  a.block = m3(), a.pivot_inverse = m3();
+  a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
+  a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
+  bytes += (8 - reinterpret_cast<uintptr_t>(bytes) % 8) % 8;
+  a.p_one = reinterpret_cast<V3<double>*>(bytes);
+  a.v_one = a.p_one + n;
+  return a;
+}
+
+/// Everything a stage of the block needs, fixed for the step.
+template <typename S>
+struct Block {
+  static constexpr int kWidth = kLaneWidth<S>;
+  static constexpr bool kFloat = std::is_same<typename LaneTraits<S>::Elem, float>::value;
+  using Mask = LaneMask<S>;
+
+  const HairModel& model;
+  const SolverConfig& config;
+  const StepInputs& inputs;
+  const SolverPlan& plan;
+  HairState* state;
+  StrandScratch* scratch;
+  StepStats* stats;
+  double h;
+  int n = 0, edges = 0, active = 0;
+  int strand[kWidth], begin[kWidth];
+  const StrandFlags* flags;
+  Vec3 origin;  ///< the head's position at the start of the step; block positions are relative.
+  BlockArrays<S> a;
+  // Per-lane stage switches, the same as one strand's.
+  bool curl_on[kWidth], obstacle_on[kWidth], adhesion_on[kWidth], stiffness_on[kWidth];
+  bool any_curl = false, any_obstacle = false, any_adhesion = false, any_stiffness = false;
+  bool any_external = false;
+  Mask curl_mask, stiffness_mask;
+  S beta_bend, beta_core, core_gain, curl_stiffness;
+  S max_strain;
+  /// Beyond this distance neither obstacle collision (offset) nor adhesion (kernel support) acts.
+  double obstacle_reach = 0.0;
+
+  Block(const HairModel& m, const SolverConfig& c, const StepInputs& in, const SolverPlan& p,
+        HairState* st, StrandScratch* scr, StepStats* stt, double step_h)
+      : model(m), config(c), inputs(in), plan(p), state(st), scratch(scr), stats(stt),
+        h(step_h) {}
+
+  bool realLane(int l) const { return l < active; }
+  uint64_t countActive(const Mask& m) const {
+    uint64_t c = 0;
+    for (int l = 0; l < active; ++l) c += maskLane(m, l);
+    return c;
+  }
+};
+
+template <typename M>
+WCH_INLINE M maskFromBools(const bool* on) {
+  if constexpr (std::is_same<M, bool>::value) {
+    return on[0];
+  } else {
+    M r;
+    for (int l = 0; l < maskWidth<M>(); ++l) r[l] = on[l] ? -1 : 0;
+    return r;
+  }
+}
+
+// ------------------------------------------------------------------ per-step setup
+
+/// Which optional stages run on which lane, and the per-strand constants.
+template <typename S>
+void planBlockStages(Block<S>& blk) {
+  const SolverConfig& config = blk.config;
+  const bool have_obstacles = blk.inputs.obstacles && !blk.inputs.obstacles->empty();
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    const StrandFlags& fl = blk.flags[l];
+    blk.curl_on[l] = fl.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0;
+    blk.obstacle_on[l] = fl.near_obstacle && have_obstacles && blk.realLane(l);
+    blk.adhesion_on[l] = blk.obstacle_on[l] && fl.wet && config.adhesion.enabled &&
+                         config.adhesion.peak_acceleration_m_s2 > 0.0;
+    blk.stiffness_on[l] = stiffnessActive(config, fl);
+    blk.any_curl |= blk.curl_on[l];
+    blk.any_obstacle |= blk.obstacle_on[l] && config.obstacle.enabled;
+    blk.any_adhesion |= blk.adhesion_on[l];
+    blk.any_stiffness |= blk.stiffness_on[l];
+    blk.any_external |= fl.external_force && blk.realLane(l);
+    setLaneValue(&blk.beta_bend, l, blk.model.beta_bend[blk.strand[l]]);
+    setLaneValue(&blk.beta_core, l, blk.model.beta_core[blk.strand[l]]);
+    setLaneValue(&blk.core_gain, l, coreLocalGain(blk.model.beta_core[blk.strand[l]]));
+    setLaneValue(&blk.curl_stiffness, l,
+                 blk.curl_on[l] && blk.plan.curl_spring ? config.curl.weight_n_per_m : 0.0);
+  }
+  blk.curl_mask = maskFromBools<LaneMask<S>>(blk.curl_on);
+  blk.stiffness_mask = maskFromBools<LaneMask<S>>(blk.stiffness_on);
+  blk.max_strain = splat<S>(0.0);
+  blk.obstacle_reach = std::max(config.obstacle.offset_m, config.adhesion.radius_m);
+}
+
+/// State and the model's per-particle constants into the lanes.
+template <typename S>
+void gatherBlock(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  const HairModel& model = blk.model;
+  const HairState& state = *blk.state;
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    // A padding lane repeats the last real strand, whose factors the scratch already holds.
+    if (blk.realLane(l))
+      prepareStrandStep(model, blk.config, blk.strand[l], blk.flags[l], blk.h, state, blk.scratch);
+    for (int i = 0; i < blk.n; ++i) {
+      const int k = blk.begin[l] + i;
+      // The carry starts as what rounding the position into the lane lost, and goes back out at
+      // the scatter: the position keeps double's resolution from step to step.
+      const Vec3 relative = state.position[k] - blk.origin;
+      setLane(&a.p[i], l, relative);
+      setLane(&a.p_carry[i], l, lane(a.p[i], l) - relative);
+      setLane(&a.v[i], l, state.velocity[k]);
+      setLaneValue(&a.sigma[i], l, state.saturation[k]);
+      setLaneValue(&a.m[i], l, model.mass_kg[k]);
+      setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
+      setLaneValue(&a.factor[i], l,
+                   blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
+      setLaneValue(&a.obstacle_slack[i], l, -1.0);
+      if (i < blk.edges) {
+        setLaneValue(&a.rest[i], l, model.rest_edge_m[k]);
+        setLaneValue(&a.core_rest[i], l, model.core_rest_m[k]);
+        setLane(&a.local_target[i], l, model.bend_local_target[k]);
+        setLane(&a.helix_edge[i], l, model.helix_edge[k]);
+      }
+    }
+  }
+}
+
+/// The lanes back into the state.
+template <typename S>
+void scatterBlock(Block<S>& blk) {
+  const BlockArrays<S>& a = blk.a;
+  HairState* state = blk.state;
+  for (int l = 0; l < blk.active; ++l) {
+    const int begin = blk.begin[l];
+    for (int i = 0; i < blk.n; ++i) {
+      state->position[begin + i] = (lane(a.p[i], l) - lane(a.p_carry[i], l)) + blk.origin;
+      state->velocity[begin + i] = lane(a.v[i], l);
+    }
+    if constexpr (Block<S>::kFloat) {
+      // The limit holds to float's resolution in the lanes (a position to ~2^-24 of its
+      // distance from the head, 1e-8 m, is 2e-6 of an 8 mm edge): the scatter applies it once
+      // more in double, root to tip, so that no output edge is longer than the limit. A
+      // projection by at most that resolution: positions only, the velocities are the dynamics'.
+      Vec3* p = &state->position[begin];
+      const double* rest = &blk.model.rest_edge_m[begin];
+      for (int i = 0; i < blk.edges; ++i)
+        p[i + 1] += limitEdgeLength(p[i], p[i + 1], (1.0 + blk.config.stretch.strain_limit) * rest[i]);
+    }
+  }
+}
+
+// ------------------------------------------------------------------ the stages of a substep
+
+/// 1-2. Roots carried rigidly by the head to the end of the substep (their velocity lands them
+/// there exactly), the smoothed curves, frames parallel-transported along the alpha_b curve and
+/// the bend targets t_i = F_i e_i^loc (physics.md §2.3-2.5, §9.2 steps 1-2).
+template <typename S>
+V3<S> rootsFramesTargets(Block<S>& blk, const SubstepMotion& motion) {
+  BlockArrays<S>& a = blk.a;
+  V3<S> root_next;
+  M33<S> frame;
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    setLane(&root_next, l,
+            motion.pose1.apply(blk.model.rest_position_head[blk.begin[l]]) - blk.origin);
+    setLane(&frame, l, motion.r0 * blk.model.root_frame_head[blk.strand[l]]);
+  }
+  a.v[0] = (root_next - a.p[0]) / splat<S>(blk.h);
+  smoothDifferences(a.p, blk.n, blk.beta_bend, a.d);
+  V3<S> tangent = column(frame, 0);
+  a.target[0] = frame * a.local_target[0];
+  for (int i = 1; i < blk.edges; ++i) {
+    transportFrame(a.d[i - 1], i, &frame, &tangent);
+    a.target[i] = frame * a.local_target[i];
+  }
+  smoothDifferences(a.p, blk.n, blk.beta_core, a.b);
+  return root_next;
+}
+
+/// 3. Gravity (and the force-based cohesion baselines' cross-strand forces), stretch, bend and
+/// core springs, eqs. (1), (4), (5); segment convention F_i += f, F_{i+1} -= f (A1).
+template <typename S>
+void elasticForces(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  const StretchConfig& st = blk.config.stretch;
+  const V3<S> gravity = splat3<S>(blk.config.gravity_m_s2);
+  for (int i = 0; i < blk.n; ++i) a.f[i] = a.m[i] * gravity;
+  if (blk.any_external)
+    for (int l = 0; l < blk.active; ++l)
+      if (blk.flags[l].external_force)
+        for (int i = 0; i < blk.n; ++i)
+          setLane(&a.f[i], l, lane(a.f[i], l) + blk.state->external_force[blk.begin[l] + i]);
+  const S ks = splat<S>(st.stiffness_n_per_m);
+  const S kb = splat<S>(blk.config.bend.stiffness_n_per_m);
+  const S kc = splat<S>(blk.config.core.stiffness_n_per_m);
+  for (int i = 0; i < blk.edges; ++i) {
+    const V3<S> e = a.p[i + 1] - a.p[i];
+    const V3<S> fs = stretchForce(e, a.rest[i], ks) + bendForce(e, a.target[i], kb) +
+                     coreForce(a.b[i], a.core_rest[i], kc);
+    a.f[i] += fs;
+    a.f[i + 1] -= fs;
+  }
+}
+
+/// Curl exaggeration, eqs. (6)-(9) (A6-A10), on the wet lanes: each strand's helix edges turned
+/// by M (helix root-to-tip onto the hair's, A7), pulled on with the saturation of the edge.
+template <typename S>
+void curlForces(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  M33<S> rot = splat33<S>(Mat3::Identity());
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    if (!blk.curl_on[l]) continue;
+    if (blk.realLane(l))
+      updateCurlRotation(blk.model, blk.config.curl, blk.strand[l], lane(a.p[0], l),
+                         lane(a.p[blk.n - 1], l), blk.h, blk.state);
+    setLane(&rot, l, blk.state->curl_rotation[blk.strand[l]]);
+  }
+  const S w = splat<S>(blk.config.curl.weight_n_per_m);
+  for (int i = 0; i < blk.edges; ++i) {
+    const S s = splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
+    const auto on = blk.curl_mask && (s > splat<S>(0.0));
+    const V3<S> u = curlForce(rot * a.helix_edge[i], a.p[i + 1] - a.p[i], w * s,
+                              blk.plan.curl_spring);
+    const V3<S> masked = select(on, u, zero3<S>());
+    a.f[i + 1] += masked;
+    a.f[i] -= masked;
+  }
+  uint64_t lanes_on = 0;
+  for (int l = 0; l < blk.active; ++l) lanes_on += blk.curl_on[l];
+  blk.stats->curl_particle_substeps += uint64_t(blk.n) * lanes_on;
+}
+
+/// Lanes whose obstacle distance must be evaluated at x. A signed distance changes by at most
+/// L |dx| when the point moves by dx: L = 1 for the analytic shapes (and the field's extension
+/// outside its box), L <= sqrt(3) for the trilinear field (each partial derivative is a weighted
+/// mean of sample differences over one voxel, at most one voxel each). While 2 |x - anchor|
+/// stays below the slack, the distance is still beyond the reach of collision and adhesion, so
+/// neither can act and the evaluation is skipped: the same result, less work.
+template <typename S>
+WCH_INLINE LaneMask<S> obstacleDistanceNeeded(const V3<S>& x, const V3<S>& anchor, const S& slack) {
+  const V3<S> dx = x - anchor;
+  return !((slack > splat<S>(0.0)) && (splat<S>(4.0) * dot(dx, dx) < slack * slack));
+}
+
+/// The obstacle field's distance at particle i of lane l, remembered for the cache above.
+template <typename S>
+double obstacleDistance(Block<S>& blk, int i, int l, Vec3* normal) {
+  const Vec3 x = lane(blk.a.p[i], l);
+  const double dist = blk.inputs.obstacles->distance(x + blk.origin, normal);
+  setLane(&blk.a.obstacle_anchor[i], l, x);
+  setLaneValue(&blk.a.obstacle_slack[i], l, dist - blk.obstacle_reach);
+  return dist;
+}
+
+/// Adhesion, eqs. (11)-(12) (A15-A16): wet particles between h/2 and h from an obstacle surface
+/// are pulled toward it, with peak acceleration sigma * peak at 3h/4. Reads the obstacle field
+/// lane by lane. Returns the particles evaluated.
+template <typename S>
+uint64_t adhesionForces(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  const AdhesionConfig& ad = blk.config.adhesion;
+  const double scale =
+      ad.peak_acceleration_m_s2 / adhesionKernelPeak(ad.radius_m, ad.literal_polynomial);
+  uint64_t evaluated = 0;
+  for (int i = 1; i < blk.n; ++i) {
+    const auto needed = obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+    for (int l = 0; l < Block<S>::kWidth; ++l) {
+      const double sigma = laneValue(a.sigma[i], l);
+      if (!blk.adhesion_on[l] || sigma <= 0.0 || !maskLane(needed, l)) continue;
+      ++evaluated;
+      Vec3 normal;
+      const double dist = obstacleDistance(blk, i, l, &normal);
+      const double ak = adhesionKernel(dist, ad.radius_m, ad.literal_polynomial);
+      if (ak <= 0.0) continue;
+      setLane(&a.f[i], l, lane(a.f[i], l) - (sigma * laneValue(a.m[i], l) * scale * ak) * normal);
+      ++blk.stats->adhesion_active;
+    }
+  }
+  blk.stats->adhesion_particle_substeps += evaluated;
+  return evaluated;
+}
+
+/// 4-5 explicit: semi-implicit Euler on the forces, roots excluded, then the damping passes with
+/// tau = h / n_d (the damping terms of eqs. 1, 4, 5; physics.md §9.2 step 5) and the velocity
+/// clamp root -> tip (Iben §2.2a). The perpendicular relative velocity of eq. (4) is measured in
+/// the frame turning with the head: a strand co-rotating rigidly with it has dv = omega x e,
+/// which the literal term would drag on (bending steadily spinning hair by c_b omega / k_b,
+/// 0.6 % of the strand length at 0.25 rev/s, measured); subtracting omega x e makes the damping
+/// vanish on rigid co-rotation and leaves it unchanged on a still head.
+template <typename S>
+void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
+  BlockArrays<S>& a = blk.a;
+  const int n = blk.n;
+  const double cs = blk.config.stretch.damping_ns_per_m;
+  const double cb = blk.config.bend.damping_ns_per_m;
+  const double cc = blk.config.core.damping_ns_per_m;
+  for (int i = 1; i < n; ++i) a.v[i] += (splat<S>(blk.h) * a.inv_m[i]) * a.f[i];
+  const int passes = blk.plan.damping_passes;
+  const S tau = splat<S>(blk.h / passes);
+  for (int pass = 0; pass < passes; ++pass) {
+    if (cc > 0.0) smoothDifferences(a.v, n, blk.beta_core, a.nu);
+    for (int i = 0; i < n; ++i) a.f[i] = zero3<S>();
+    for (int i = 0; i < blk.edges; ++i) {
+      const V3<S> e = a.p[i + 1] - a.p[i];
+      const V3<S> dv = a.v[i + 1] - a.v[i];
+      V3<S> fd = stretchDampingForce(e, dv, splat<S>(cs)) +
+                 bendDampingForce(e, dv - cross(omega, e), splat<S>(cb));
+      if (cc > 0.0) fd += coreDampingForce(a.b[i], a.nu[i], splat<S>(cc));
+      a.f[i] += fd;
+      a.f[i + 1] -= fd;
+    }
+    for (int i = 1; i < n; ++i) a.v[i] += (tau * a.inv_m[i]) * a.f[i];
+  }
+  // The clamp is explicit only: it keeps the explicit stretch spring stable. Applied to v+ of a
+  // theta method it breaks the scheme's consistency (measured: midpoint at 1e-3 s on the
+  // built-in scene reached strain 13.6 before limiting with it, 0.035 without).
+  const S rate = splat<S>(blk.config.stretch.strain_rate_limit_per_substep / blk.h);
+  for (int i = 0; i < blk.edges; ++i) {
+    const V3<S> vnew = clampAxialRelativeVelocity(a.p[i + 1] - a.p[i], a.v[i], a.v[i + 1],
+                                                  rate * a.rest[i]);
+    const auto changed =
+        (vnew.x != a.v[i + 1].x) || (vnew.y != a.v[i + 1].y) || (vnew.z != a.v[i + 1].z);
+    if (!anyLane(changed)) continue;
+    a.v[i + 1] = vnew;
+    blk.stats->velocity_clamps += blk.countActive(changed);
+  }
+}
+
+/// Block Thomas: forward elimination of (m_i + G_{i-1} + G_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1}
+/// = rhs_i root to tip, back substitution into a.v.
+template <typename S>
+void solveBlockTridiagonal(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  const int n = blk.n;
+  for (int i = 1; i < n; ++i) {
+    M33<S> pivot = a.block[i - 1];
+    for (int r = 0; r < 3; ++r) pivot.m[r][r] += a.m[i];
+    if (i < blk.edges) pivot = pivot + a.block[i];
+    if (i > 1) {
+      const M33<S> w = a.block[i - 1] * a.pivot_inverse[i - 1];
+      pivot = pivot - w * a.block[i - 1];
+      a.rhs[i] += w * a.rhs[i - 1];
+    }
+    a.pivot_inverse[i] = inverse(pivot);
+  }
+  a.v[n - 1] = a.pivot_inverse[n - 1] * a.rhs[n - 1];
+  for (int i = n - 2; i >= 1; --i) a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
+}
+
+/// 4-5 implicit: a theta method on the velocity u that moves the particles,
+/// x+ = x + h u, v+ = v + (u - v) / theta, with the forces linearised about the start of the
+/// substep: M (u - v) = theta h [f(x) + theta h K u + D(u)], D the damping. Per edge the coupling
+/// block G (edgeImplicitTerms) gives
+///   (m_i + G_{i-1} + G_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1} = m_i v_i + theta h f_i,
+/// a block-tridiagonal system solved root to tip (block Thomas), the root's u prescribed.
+template <typename S>
+void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
+  BlockArrays<S>& a = blk.a;
+  const int n = blk.n;
+  const SolverConfig& config = blk.config;
+  const double theta = blk.plan.theta;
+  EdgeImplicitParams q;
+  q.k_s = config.stretch.stiffness_n_per_m, q.k_b = config.bend.stiffness_n_per_m;
+  q.k_c = config.core.stiffness_n_per_m, q.c_s = config.stretch.damping_ns_per_m;
+  q.c_b = config.bend.damping_ns_per_m, q.c_c = config.core.damping_ns_per_m;
+  q.theta_h = theta * blk.h;
+  if (q.c_c > 0.0) smoothDifferences(a.v, n, blk.beta_core, a.nu);
+  for (int i = 0; i < blk.edges; ++i) {
+    const S curl = blk.curl_stiffness * splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
+    const EdgeImplicitTerms<S> t =
+        edgeImplicitTerms(q, a.p[i + 1] - a.p[i], a.v[i + 1] - a.v[i], a.rest[i], a.b[i],
+                          a.core_rest[i], a.nu[i], blk.core_gain, curl, omega);
+    a.block[i] = t.block;
+    a.f[i] += t.explicit_force;
+    a.f[i + 1] -= t.explicit_force;
+  }
+  for (int i = 0; i < n; ++i) a.v_start[i] = a.v[i];
+  const S th = splat<S>(q.theta_h);
+  for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + th * a.f[i];
+  a.rhs[1] += a.block[0] * a.v[0];  // the prescribed root velocity moved to the right-hand side
+  solveBlockTridiagonal(blk);
+  const S inv_theta = splat<S>(1.0 / theta);
+  for (int i = 1; i < n; ++i) a.v[i] = a.v_start[i] + inv_theta * (a.v[i] - a.v_start[i]);
+}
+
+/// 6. Stiffness, eq. (13) (A17), on the lanes it acts on: v <- (xi zeta_i)^(h / h_ref) v, on the
+/// velocity relative to the head's rigid motion (or the absolute velocity, literal option).
+template <typename S>
+void stiffenVelocities(Block<S>& blk, const SubstepMotion& motion, const V3<S>& omega) {
+  BlockArrays<S>& a = blk.a;
+  const bool relative = blk.config.stiffness.relative_to_head;
+  const V3<S> head_velocity = splat3<S>(motion.head_velocity);
+  const V3<S> head_origin = splat3<S>(Vec3(motion.pose0.translation - blk.origin));
+  for (int i = 1; i < blk.n; ++i) {
+    const V3<S> carried =
+        relative ? head_velocity + cross(omega, a.p[i] - head_origin) : zero3<S>();
+    a.v[i] = select(blk.stiffness_mask, stiffenVelocity(a.v[i], a.factor[i], carried), a.v[i]);
+  }
+}
+
+/// p += dx. In float with Kahan's compensation: an increment h v is often below the resolution
+/// of a position 0.1-0.3 m from the head (2^-24 of it, 1-2e-8 m, is h v at 1e-4 m/s and 2e-4 s),
+/// and plain rounding would stall slow particles and leave hair at rest jittering by that much.
+template <typename S>
+inline void advancePosition(V3<S>* p, V3<S>* carry, const V3<S>& dx) {
+  if constexpr (std::is_same<typename LaneTraits<S>::Elem, float>::value) {
+    const V3<S> y = dx - *carry;
+    const V3<S> t = *p + y;
+    *carry = (t - *p) - y;
+    *p = t;
+  } else {
+    *p += dx;
+  }
+}
+
+/// 8. Positions: with the new velocity (explicit), with the theta-weighted one (implicit, equal
+/// to the solved u unless eq. 13 changed v+).
+template <typename S>
+void advancePositions(Block<S>& blk, const V3<S>& root_next) {
+  BlockArrays<S>& a = blk.a;
+  const S h = splat<S>(blk.h);
+  a.p[0] = root_next;
+  if (!blk.plan.implicit) {
+    for (int i = 1; i < blk.n; ++i) advancePosition(&a.p[i], &a.p_carry[i], h * a.v[i]);
+  } else {
+    const S w0 = splat<S>(1.0 - blk.plan.theta), w1 = splat<S>(blk.plan.theta);
+    for (int i = 1; i < blk.n; ++i)
+      advancePosition(&a.p[i], &a.p_carry[i], h * (w0 * a.v_start[i] + w1 * a.v[i]));
+  }
+}
+
+/// 7. Head collision (physics.md §6) of particles 1..n-1 of every lane: projection to the offset
+/// surface, inelastic, Coulomb friction, the head's velocity at the particle from the two poses.
+/// Adds each lane's contacts to touched[lane].
+template <typename S>
+void collideHeadParticles(const HairModel& model, const CollisionConfig& config,
+                          const SubstepMotion& motion, const Vec3& origin, double h, V3<S>* p,
+                          V3<S>* v, int n, uint64_t* touched) {
+  const M33<S> r0 = splat33<S>(motion.r0), r1 = splat33<S>(motion.r1);
+  const M33<S> r1_inverse = splat33<S>(motion.r1_inverse);
+  const V3<S> t0 = splat3<S>(Vec3(motion.pose0.translation - origin));
+  const V3<S> t1 = splat3<S>(Vec3(motion.pose1.translation - origin));
+  for (int i = 1; i < n; ++i) {
+    const V3<S> x_head = r1_inverse * (p[i] - t1);
+    V3<S> n_head;
+    const S dist = model.head.distance(x_head, &n_head);
+    const auto contact = dist < splat<S>(config.offset_m);
+    if (!anyLane(contact)) continue;
+    const V3<S> v_head = (p[i] - (r0 * x_head + t0)) / splat<S>(h);
+    collideParticle(contact, dist, r1 * n_head, config.offset_m, config.friction, v_head, &p[i],
+                    &v[i]);
+    for (int l = 0; l < kLaneWidth<S>; ++l) touched[l] += maskLane(contact, l);
+  }
+}
+
+/// The same against the (static, world-frame) external obstacles, read lane by lane where the
+/// distance cache cannot rule a contact out (no cache: every particle). Returns the particles
+/// evaluated; adds contacts to touched[lane] for the lanes in `on`.
+template <typename S, typename DistanceFn>
+uint64_t collideObstacleParticles(const ObstacleCollisionConfig& config, const bool* on,
+                                  DistanceFn&& distance, const V3<S>* anchor, const S* slack,
+                                  V3<S>* p, V3<S>* v, int n, uint64_t* touched) {
+  uint64_t evaluated = 0;
+  for (int i = 1; i < n; ++i) {
+    LaneMask<S> needed = maskFromBools<LaneMask<S>>(on);
+    if (anchor) needed = needed && obstacleDistanceNeeded(p[i], anchor[i], slack[i]);
+    for (int l = 0; l < kLaneWidth<S>; ++l) {
+      if (!on[l] || !maskLane(needed, l)) continue;
+      ++evaluated;
+      Vec3 normal;
+      const double dist = distance(i, l, &normal);
+      Vec3 x = lane(p[i], l), vel = lane(v[i], l);
+      if (!collideParticle(dist, normal, config.offset_m, config.friction, Vec3::Zero(), &x, &vel))
+        continue;
+      setLane(&p[i], l, x);
+      setLane(&v[i], l, vel);
+      ++touched[l];
+    }
+  }
+  return evaluated;
+}
+
+/// 9. Strain limiting root -> tip with velocity correction (Selle 2008, physics.md §2.2b), every
+/// lane. Adds each lane's projected edges to projected[lane]; *max_strain takes the largest
+/// strain before the projection.
+template <typename S>
+void limitStrainEdges(const S* rest, double strain_limit, bool inelastic, double h, V3<S>* p,
+                      V3<S>* v, int n, S* max_strain, uint64_t* projected) {
+  for (int i = 0; i + 1 < n; ++i) {
+    const V3<S> e = p[i + 1] - p[i];
+    *max_strain = vmax(*max_strain, vsqrt(dot(e, e)) / rest[i] - splat<S>(1.0));
+    const V3<S> disp = limitEdgeLength(p[i], p[i + 1], splat<S>(1.0 + strain_limit) * rest[i]);
+    const auto moved = dot(disp, disp) > splat<S>(0.0);
+    if (!anyLane(moved)) continue;
+    p[i + 1] = select(moved, p[i + 1] + disp, p[i + 1]);
+    if (inelastic) {
+      // Remove the edge's stretching relative velocity only: never adds energy, even when a
+      // collider keeps pushing the particle back out every substep.
+      V3<S> edge = p[i + 1] - p[i];
+      const S len2 = dot(edge, edge);
+      edge = select(len2 > splat<S>(0.0), edge / vsqrt(len2), edge);
+      const S along = dot(v[i + 1] - v[i], edge);
+      v[i + 1] = select(moved && (along > splat<S>(0.0)), v[i + 1] - along * edge, v[i + 1]);
+    } else {
+      v[i + 1] = select(moved, v[i + 1] + disp / splat<S>(h), v[i + 1]);  // Selle: as an impulse
+    }
+    for (int l = 0; l < kLaneWidth<S>; ++l) projected[l] += maskLane(moved, l);
+  }
+}
+
+/// Further collision + limit rounds on one lane after a substep's first
+/// (CollisionConfig::constraint_rounds), where something touched and the limit then moved a
+/// particle: only that can have pulled a projected particle back in. Project again and limit
+/// again until nothing is inside or nothing moves (or the rounds run out); the strain limit runs
+/// last, so the edge bound holds exactly. In double, on the lane's copy. Returns the rounds run.
+template <typename S>
+uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l,
+                               uint64_t touched, uint64_t projected) {
+  BlockArrays<S>& a = blk.a;
+  const SolverConfig& config = blk.config;
+  const int n = blk.n;
+  for (int i = 0; i < n; ++i) a.p_one[i] = toV3(lane(a.p[i], l)), a.v_one[i] = toV3(lane(a.v[i], l));
+  const double* rest = &blk.model.rest_edge_m[blk.begin[l]];
+  const bool obstacles = blk.obstacle_on[l] && config.obstacle.enabled;
+  auto distance = [&](int i, int, Vec3* normal) {
+    return blk.inputs.obstacles->distance(toEigen(a.p_one[i]) + blk.origin, normal);
+  };
+  uint64_t rounds = 0;
+  for (int round = 0; touched > 0 && projected > 0 && round < config.collision.constraint_rounds;
+       ++round) {
+    touched = 0;
+    if (config.collision.head_enabled)
+      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p_one,
+                           a.v_one, n, &touched);
+    if (obstacles)
+      collideObstacleParticles<double>(config.obstacle, &obstacles, distance, nullptr, nullptr,
+                                       a.p_one, a.v_one, n, &touched);
+    if (touched == 0) break;
+    double unused = 0.0;
+    projected = 0;
+    limitStrainEdges(rest, config.stretch.strain_limit, blk.plan.inelastic_limit, blk.h, a.p_one,
+                     a.v_one, n, &unused, &projected);
+    ++rounds;
+  }
+  for (int i = 1; i < n; ++i)
+    setLane(&a.p[i], l, toEigen(a.p_one[i])), setLane(&a.v[i], l, toEigen(a.v_one[i]));
+  return rounds;
+}
+
+/// 7 and 9: head and obstacle collision, then the strain limit, then the extra rounds where
+/// they are needed.
+template <typename S>
+void collideAndLimit(Block<S>& blk, const SubstepMotion& motion, StageLaps& laps) {
+  BlockArrays<S>& a = blk.a;
+  const SolverConfig& config = blk.config;
+  const int n = blk.n;
+  uint64_t touched[Block<S>::kWidth] = {};
+  if (config.collision.head_enabled) {
+    collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p, a.v, n,
+                         touched);
+    for (int l = 0; l < blk.active; ++l) blk.stats->head_contacts += touched[l];
+    laps.lap(kStageHeadCollision, uint64_t(n - 1) * blk.active);
+  }
+  if (blk.any_obstacle) {
+    bool on[Block<S>::kWidth];
+    for (int l = 0; l < Block<S>::kWidth; ++l) on[l] = blk.obstacle_on[l] && config.obstacle.enabled;
+    uint64_t obstacle_touched[Block<S>::kWidth] = {};
+    auto distance = [&](int i, int l, Vec3* normal) { return obstacleDistance(blk, i, l, normal); };
+    const uint64_t evaluated = collideObstacleParticles<S>(
+        config.obstacle, on, distance, a.obstacle_anchor, a.obstacle_slack, a.p, a.v, n,
+        obstacle_touched);
+    // Obstacle positions are world coordinates: the lambda reads at p + origin, and
+    // collideParticle moved the lane's relative position by the same projection.
+    for (int l = 0; l < blk.active; ++l) {
+      blk.stats->obstacle_contacts += obstacle_touched[l];
+      touched[l] += obstacle_touched[l];
+    }
+    blk.stats->obstacle_particle_substeps += evaluated;
+    laps.lap(kStageObstacleCollision, evaluated);
+  }
+  uint64_t projected[Block<S>::kWidth] = {};
+  limitStrainEdges(a.rest, config.stretch.strain_limit, blk.plan.inelastic_limit, blk.h, a.p, a.v,
+                   n, &blk.max_strain, projected);
+  for (int l = 0; l < blk.active; ++l) {
+    blk.stats->strain_limited_edges += projected[l];
+    if (touched[l] == 0 || projected[l] == 0 || config.collision.constraint_rounds == 0) continue;
+    blk.stats->constraint_rounds += extraConstraintRounds(blk, motion, l, touched[l], projected[l]);
+  }
+  laps.lap(kStageStrainLimit, uint64_t(n - 1) * blk.active);
+}
+
+/// One substep of the block: the recipe of physics.md §9.2.
+template <typename S>
+void substepBlock(Block<S>& blk, const SubstepMotion& motion) {
+  StageLaps laps(blk.inputs.clock, blk.stats);
+  const uint64_t particles = uint64_t(blk.n) * blk.active;
+  const V3<S> omega = splat3<S>(motion.omega);
+  const V3<S> root_next = rootsFramesTargets(blk, motion);
+  laps.lap(kStageFrames, particles);
+  elasticForces(blk);
+  laps.lap(kStageForces, particles);
+  if (blk.any_curl) {
+    curlForces(blk);
+    uint64_t lanes_on = 0;
+    for (int l = 0; l < blk.active; ++l) lanes_on += blk.curl_on[l];
+    laps.lap(kStageCurl, uint64_t(blk.n) * lanes_on);
+  }
+  if (blk.any_adhesion) laps.lap(kStageAdhesion, adhesionForces(blk));
+  if (blk.plan.implicit)
+    implicitVelocitySolve(blk, omega);
+  else
+    explicitVelocityUpdate(blk, omega);
+  if (blk.any_stiffness) stiffenVelocities(blk, motion, omega);
+  advancePositions(blk, root_next);
+  laps.lap(kStageIntegrate, particles);
+  collideAndLimit(blk, motion, laps);
+}
+
+/// Substeps k_begin .. k_end - 1 of a step of nsub substeps for the block of `active` strands
+/// from first_strand (flags: one per lane, the padding lanes repeating the last strand's).
+/// Returns the largest strain before limiting.
+template <typename S>
+double stepStrandBlock(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
+                       const StepInputs& inputs, int first_strand, int active,
+                       const StrandFlags* flags, int k_begin, int k_end, int nsub, double h,
+                       HairState* state, StrandScratch* scratch, StepStats* stats) {
+  Block<S> blk(model, config, inputs, plan, state, scratch, stats, h);
+  blk.n = model.strandSize(first_strand);
+  blk.edges = blk.n - 1;
+  blk.active = active;
+  blk.flags = flags;
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    blk.strand[l] = first_strand + std::min(l, active - 1);
+    blk.begin[l] = model.strandBegin(blk.strand[l]);
+  }
+  blk.origin = inputs.head_start.translation;
+  blk.a = carveBlockArrays<S>(scratch);
+  planBlockStages(blk);
+  gatherBlock(blk);
+  for (int k = k_begin; k < k_end; ++k)
+    substepBlock(blk, substepMotion(inputs, double(k) / nsub, double(k + 1) / nsub, h));
+  scatterBlock(blk);
+  double largest = laneValue(blk.max_strain, 0);
+  for (int l = 1; l < active; ++l) largest = std::max(largest, laneValue(blk.max_strain, l));
+  return largest;
+}
+
+}  // namespace detail
+}  // namespace wet_curly_hair
