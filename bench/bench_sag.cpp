@@ -1,4 +1,4 @@
-// Sag-free start (README "Sag-free start", method.md §8): how far the built-in scene's hair
+// Sag-free start (docs/physics.md §8): how far the built-in scene's hair
 // moves from its groom with and without solver.sag_free.
 //
 // Cases, each with the option off and on, on the built-in scene (200 curly strands, soft
