@@ -1,5 +1,5 @@
-// Sag-free start (README "Sag-free start", method.md §8): how far the built-in scene's hair
-// moves from its groom with and without solver.sag_free.
+// Sag-free start (docs/physics.md §8): how far the built-in scene's hair moves from its groom
+// with and without solver.sag_free.
 //
 // Cases, each with the option off and on, on the built-in scene (200 curly strands, soft
 // springs, head ellipsoid and neck): "dry still" (saturation 0, still head: pure sag), "wet still"

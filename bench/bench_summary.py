@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Summarises what wet_curly_hair_bench wrote (README "Speed against error").
+"""Summarises what wet_curly_hair_bench wrote (docs/performance.md).
 
     bench/bench_summary.py [DIR]        DIR defaults to docs/bench; writes DIR/summary.md
 
@@ -144,7 +144,7 @@ def scaling(out, sc, common):
 
 
 def target(out, t):
-    """The issue's headline scene measured on itself: cost and error per candidate setting, the
+    """The headline target scene measured on itself: cost and error per candidate setting, the
     error over the horizon where the reference converged (and over the whole run); first the
     dynamics alone, then the full wet model with its per-frame cohesion display pass (errors of
     the output positions p^w against the reference's, exact cohesion)."""

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Stability on hard cases (issue 7): runs every scene of config/hard/ under every integrator and
+"""Stability on hard cases: runs every scene of config/hard/ under every integrator and
 substep through the offline runner and judges each run.
 
     bench/hard_cases.py [--build DIR] [--short] [--out DIR] [--jobs N] [--readme FILE]
@@ -38,7 +38,8 @@ The runs start from the package folder (scene paths are relative to it); the `co
 the CSV reproduces a run from there. A substep longer than the runner's 1/60 s frame needs a longer frame: at 1/30 s the runner is
 given `--set run.frame_s=1/30` (one substep per frame), else the frame is 1/60 s.
 
-Writes OUT/hard_cases.csv and OUT/hard_cases.md (OUT defaults to docs/). The explicit integrator
+Writes OUT/hard_cases.csv and the table of OUT/hard_cases.md (OUT defaults to docs/; only the part
+between its hard_cases markers is replaced, the prose around it stays). The explicit integrator
 is reported at every step and not asserted (its stability bound lies below them).
 Python 3 standard library only.
 """
@@ -86,7 +87,7 @@ def expected_stable(integrator, step_s):
     # The explicit integrator is stable only below ~0.6 sqrt(m / (k_s + k_b + k_c)) (2.4e-4 s with
     # the default springs): every step of the suite is past it, so its cells show where it
     # fails and are not asserted. Its default 1/5000 s column is reported, not asserted either:
-    # the 4 Hz shake blows it up through the strain limiter (README).
+    # the 4 Hz shake blows it up through the strain limiter (docs/hard_cases.md).
     return integrator != "explicit"
 
 
@@ -320,8 +321,24 @@ def markdown(rows, scenes, integrators, steps, command):
         ["Cells: `stable` = passes all five criteria (finite, strain, contact, energy, repairs); "
          "otherwise the criteria it fails (repairs with their count). `(not asserted)` marks the "
          "explicit integrator, whose stability bound (~2.4e-4 s with the default springs) lies "
-         "below every step of the issue; 1/5000 s is its default.", ""] + lines + [""] +
+         "below every step of the table but 1/5000 s, its default.", ""] + lines + [""] +
         ["- " + s for s in summary] + ["", "Command: `%s`" % command, ""])
+
+
+def replace_between_markers(path, md):
+    """Replaces the text between the hard_cases markers of the file at path with md. Returns False,
+    changing nothing, when the file does not exist or lacks the markers."""
+    begin, end = "<!-- hard_cases:begin -->", "<!-- hard_cases:end -->"
+    if not os.path.exists(path):
+        return False
+    with open(path) as f:
+        text = f.read()
+    if begin not in text or end not in text:
+        return False
+    head, rest = text.split(begin, 1)
+    with open(path, "w") as f:
+        f.write(head + begin + "\n" + md + end + rest.split(end, 1)[1])
+    return True
 
 
 def main():
@@ -373,22 +390,18 @@ def main():
         w.writeheader()
         w.writerows(rows)
     command = "bench/hard_cases.py --build _build --jobs 2" + (" --short" if args.short else "")
-    md = markdown(rows, scenes, integrators, [s for s, _ in steps], command)
-    with open(os.path.join(args.out, name + ".md"), "w") as f:
-        f.write("# Stability on hard cases\n\nWritten by `bench/hard_cases.py` (criteria in its "
-                "docstring and in README \"Stability on hard cases\"); raw figures in `%s.csv`. "
-                "Total wall time %.0f s.\n\n" % (name, time.time() - t0) + md)
-    if args.readme:
-        begin, end = "<!-- hard_cases:begin -->", "<!-- hard_cases:end -->"
-        with open(args.readme) as f:
-            text = f.read()
-        if begin in text and end in text:
-            head, rest = text.split(begin, 1)
-            text = head + begin + "\n" + md + end + rest.split(end, 1)[1]
-            with open(args.readme, "w") as f:
-                f.write(text)
-        else:
-            print("hard_cases: %s has no %s ... %s markers; not changed" % (args.readme, begin, end))
+    md = ("Written by `bench/hard_cases.py`; raw figures in [%s.csv](%s.csv). Total wall time %.0f s."
+          "\n\n" % (name, name, time.time() - t0) + markdown(rows, scenes, integrators,
+                                                         [s for s, _ in steps], command))
+    # OUT/NAME.md: docs/hard_cases.md holds the criteria and what the table says around the
+    # markers, so only the table between them is replaced; a file without markers is written whole.
+    md_path = os.path.join(args.out, name + ".md")
+    if not replace_between_markers(md_path, md):
+        with open(md_path, "w") as f:
+            f.write("# Stability on hard cases\n\nCriteria: docs/hard_cases.md and the docstring of "
+                    "`bench/hard_cases.py`.\n\n" + md)
+    if args.readme and not replace_between_markers(args.readme, md):
+        print("hard_cases: %s has no hard_cases markers; not changed" % args.readme)
     if not args.work:
         shutil.rmtree(work, ignore_errors=True)
     bad = [r for r in rows if r["expected_stable"] and r["status"] != "stable"]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Long run (issue 7 part 5): one simulated hour of spin-and-nod on the built-in scene, recording
+# Long run (docs/long_run.md): one simulated hour of spin-and-nod on the built-in scene, recording
 # strand length drift, repairs, memory and the real-time factor per simulated minute.
 #
 #   bench/long_run.sh [BUILD_DIR] [--seconds T] [--strands N] [--integrator NAME] [--substep S]

@@ -3,7 +3,7 @@
 
 Usage: bench/reproduce_paper.py BUILD_DIR [--short] [--out DIR] [--work DIR] [--no-strong]
 
-Long form (default): writes DIR/paper.md (the README table), DIR/paper.json and contact-sheet
+Long form (default): writes DIR/paper.md (the tables of docs/paper.md), DIR/paper.json and contact-sheet
 PNGs in DIR (default docs/img). --work DIR keeps the runs there and reuses any run whose JSON is
 already there (resume an interrupted long form). --no-strong leaves out the 5x-strength
 baselines (slow: they pile strands onto each other). Short form (--short, used by scripts/test): fewer strands and

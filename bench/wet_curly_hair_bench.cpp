@@ -1,4 +1,4 @@
-// wet_curly_hair_bench: speed against error (issue "Speed against error").
+// wet_curly_hair_bench: speed against error (docs/performance.md).
 //
 // For each benchmark scene, runs every solver setting (integrator x substep) and a reference (the
 // explicit integrator at a substep 16 times smaller than the smallest benchmarked, checked against
@@ -64,7 +64,7 @@ struct Options {
   bool work_precision = true;
   bool gating = true;
   bool cohesion = true;
-  bool target = true;  ///< the issue's headline scene: 1,000 strands, full wet model, obstacle
+  bool target = true;  ///< the headline target scene: 1,000 strands, full wet model, obstacle
   bool lanes = true;   ///< float or double: the target scene's dynamics in every lane layout
   std::vector<std::string> only_scenes;
   std::vector<std::string> only_series;  ///< scaling: only these Setting::label()s
@@ -484,7 +484,7 @@ int main(int argc, char** argv) {
            "ns_per_particle_substep,realtime_factor,runs,rounds,relative_to_1000\n";
     // obstacle_slide (wet: curl, eq. 13, adhesion, obstacle collision) without the per-frame
     // cohesion display pass: its cost grows with the neighbours within h, i.e. with the strand
-    // density, not with the strand count as such; it is measured on its own (README).
+    // density, not with the strand count as such; it is measured on its own (docs/performance.md).
     BenchScene target = benchScenes()[4];
     target.overrides.push_back({"solver.cohesion.mode", "off"});
     // A series' points are measured in rounds: every round runs each point of the series once

@@ -118,7 +118,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   i("solver.collision.constraint_rounds", &c.collision.constraint_rounds,
     "extra collision + strain-limit rounds in a substep with contact", false);
   str("solver.integrator.method", &c.integrator.method,
-      "explicit, backward_euler, midpoint or theta (README \"Speed against error\")", false);
+      "explicit, backward_euler, midpoint or theta (docs/performance.md)", false);
   d("solver.integrator.substep_s", &c.integrator.substep_s, "largest substep, s", false);
   d("solver.integrator.theta", &c.integrator.theta, "theta of method theta, [0.5, 1]", false);
   b("solver.integrator.strand_lanes", &c.integrator.strand_lanes,
@@ -137,7 +137,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
   addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
   b("solver.sag_free", &c.sag_free,
-    "solve rest lengths and bend targets so the groom hangs still (README \"Sag-free start\")",
+    "solve rest lengths and bend targets so the groom hangs still (docs/physics.md §8)",
     true);
   b("solver.curl.enabled", &c.curl.enabled, "curl exaggeration on wet particles (eqs. 6-9)", false);
   str("solver.curl.mode", &c.curl.mode, "spring (A10 restoring) or literal (eq. 9 couple)", false);
@@ -156,7 +156,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.cohesion.kim_surface_tension", &c.cohesion.kim_surface_tension,
     "kim baseline: Akinci cohesion coefficient", false);
   str("solver.cohesion.evaluation", &c.cohesion.evaluation,
-      "exact or grid (lattice approximation, README \"Cohesion evaluation\")", true);
+      "exact or grid (lattice approximation, docs/physics.md §7.3)", true);
   i("solver.cohesion.grid_cells_per_radius", &c.cohesion.grid_cells_per_radius,
     "grid evaluation: lattice nodes per kernel radius", true);
   b("solver.cohesion.grid_single_precision", &c.cohesion.grid_single_precision,

@@ -1,4 +1,4 @@
-// head_motion_publisher: broadcasts a scripted head motion on tf2 (README "The node").
+// head_motion_publisher: broadcasts a scripted head motion on tf2 (docs/ros.md).
 #include "wet_curly_hair/ros/head_motion_publisher.h"
 
 int main(int argc, char** argv) {

@@ -1,4 +1,4 @@
-// wet_curly_hair_node: wet curly hair on the head frame of tf2 (README "The node").
+// wet_curly_hair_node: wet curly hair on the head frame of tf2 (docs/ros.md).
 #include <memory>
 
 #include "wet_curly_hair/ros/node.h"

@@ -201,7 +201,7 @@ bool sceneFromRos(const ros::NodeHandle& pnh, io::SceneConfig* scene, std::strin
       const std::string top = rel.substr(0, rel.find('/'));
       if (namespaces.count(top) && !known.count(rel)) {
         *why = "~" + rel +
-               ": not a scene parameter (see ~get_parameters or the README for the "
+               ": not a scene parameter (see ~get_parameters or docs/runner.md for the "
                "names; lists such as head.capsules are set in the scene file)";
         return false;
       }

@@ -1,5 +1,6 @@
 // wet_curly_hair_run: the offline runner. Runs a scene (the built-in one when given none) for a
-// set simulated time under a scripted head motion and writes a JSON summary. See README.
+// set simulated time under a scripted head motion and writes a JSON summary. Options and JSON
+// keys: docs/runner.md.
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>

@@ -145,7 +145,7 @@ Discrepancy compare(const HairState& exact, const HairState& grid) {
 }  // namespace
 
 TEST(CohesionGrid, MatchesExactOnAWetCurlyScene) {
-  // Measured (README "Cohesion evaluation"), 300 strands x 32 particles, h = 4 cm, RMS
+  // Measured (docs/physics.md §7.3), 300 strands x 32 particles, h = 4 cm, RMS
   // displacement |p^w - p| 3.43 mm (max 11.2 mm): |p^w_grid - p^w_exact| RMS / RMS displacement
   // and max, at 4 nodes per radius 0.038 and 1.44 mm, at 3 0.093 and 2.28 mm, at 2 0.32 and
   // 4.74 mm. Bounds: those with about 30 % margin.

@@ -1,4 +1,4 @@
-// The head's analytic colliders and the Bridson collision response (method.md §6).
+// The head's analytic colliders and the Bridson collision response (docs/physics.md §6).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// Sag-free start (method.md §8, src/core/sag_free.cpp): the groom is an equilibrium under
+// Sag-free start (docs/physics.md §8, src/core/sag_free.cpp): the groom is an equilibrium under
 // gravity, a curly strand on a still head keeps its groom, and without gravity nothing changes.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// The IIR smoothing filter, eq. (2) (method.md §2.3, A2, A3).
+// The IIR smoothing filter, eq. (2) (docs/physics.md §2.3, A2, A3).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -722,7 +722,8 @@ TEST(HairSintelLite, ParsesWithExpectedCountsAndPrintsHeader) {
       d.default_color[0], d.default_color[1], d.default_color[2], d.info.c_str(),
       d.write_segments_array ? "yes" : "no", d.thickness.empty() ? "no" : "yes",
       d.transparency.empty() ? "no" : "yes", d.colors.empty() ? "no" : "yes");
-  // Only what the data README states: points only, 31 segments per strand by default.
+  // Only what the file's provider states (the Sintel lite hair, converted from its TressFX
+  // asset): points only, 31 segments per strand by default.
   EXPECT_NE(getU32(raw, 12) & kHairHasPoints, 0u);
   EXPECT_FALSE(d.write_segments_array);
   EXPECT_TRUE(d.thickness.empty());

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The solver library and the file formats must never include a ROS header (design.md).
+# The solver library and the file formats must never include a ROS header: they are used and
+# tested without a ROS installation (the runner, the benchmarks, the fuzz targets, the gtests).
 set -u
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 hits=$(grep -rnE '#include *[<"](ros|tf2_ros|tf2|rosbag|roscpp|std_msgs|geometry_msgs|visualization_msgs)/' \

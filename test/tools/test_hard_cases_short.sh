@@ -4,7 +4,7 @@
 # setting expected stable (the two implicit methods at both steps: 16 runs) passes every criterion
 # (finite, strain, contact, energy, repairs); explicit is run and reported, not asserted (its
 # stability bound lies below both steps).
-# Long form and criteria: README "Stability on hard cases".
+# Long form and criteria: docs/hard_cases.md.
 set -u
 build=$1
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"

@@ -65,7 +65,7 @@ struct RunSummary {
   uint64_t head_contacts = 0;
   uint64_t constraint_rounds = 0;  ///< extra collision + strain-limit rounds (solver.h)
   int hair_frames_written = 0;
-  // Wet model measurements (README "Reproducing the paper"), taken on the output positions
+  // Wet model measurements (docs/paper.md), taken on the output positions
   // (the cohesion display positions p^w when cohesion is "ours", else the simulated ones).
   double clump_distance_m = 0.0;  ///< final frame: mean distance of a wet particle to another strand.
   double jitter_m = 0.0;          ///< RMS second difference per frame of output positions, head frame.

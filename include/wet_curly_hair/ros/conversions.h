@@ -1,6 +1,6 @@
 // Conversions between the core's types and ROS messages: the state as a Strands message and as
 // an RViz LINE_LIST, poses, and saturation requests. No ROS node handles here: pure functions,
-// unit-tested without a master (test/ros/test_conversions.cpp).
+// unit-tested without a master (test/ros/test_ros_conversions.cpp).
 #pragma once
 
 #include <geometry_msgs/Pose.h>

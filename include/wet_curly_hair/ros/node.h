@@ -1,5 +1,5 @@
 // The wet_curly_hair node: the ROS-free solver driven by ROS time, the head pose from tf2,
-// obstacles from OctoMap, strands/status/markers out, services in (design.md "The node").
+// obstacles from OctoMap, strands/status/markers out, services in (interface: docs/ros.md).
 //
 // Threads: the timer runs on the node handle's queue (the main thread under ros::spin);
 // services and input topics run on a queue of their own (two threads), so that a service waiting

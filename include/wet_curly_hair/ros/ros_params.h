@@ -1,6 +1,7 @@
-// ROS parameters -> configs: the one place where the node's private parameters are read
-// (style.md §4). Everything starts from defaults, is overridden by the parameter server, and is
-// validated; a bad value is refused with a message naming the parameter.
+// ROS parameters -> configs: the one place where the node's private parameters are read, so that
+// every parameter has one name, one default and one check. Everything starts from defaults, is
+// overridden by the parameter server, and is validated; a bad value is refused with a message
+// naming the parameter. The parameters are listed in docs/ros.md.
 #pragma once
 
 #include <ros/node_handle.h>
