@@ -130,7 +130,7 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
   const Vec3List& p = state->position;
   NeighborGrid& grid = state->grid;
   const double h2 = h * h;
-  // Normalised poly6 (method.md §7.1) so that V = m / rho is a volume (the kim baseline's normals
+  // Normalised poly6 (docs/physics.md §7.1) so that V = m / rho is a volume (the kim baseline's normals
   // need it; in the Shepard weights of eq. 10 the constant cancels).
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   const int64_t n = model.particleCount();
@@ -198,7 +198,7 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
     const Vec3 pull(px, py, pz);
     // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
     // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
-    // crosses the kernel support: measured as jitter under rotation (README).
+    // crosses the kernel support: measured as jitter under rotation (docs/physics.md §1.3).
     if (c.include_self && weight_sum > 0.0)
       weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
     if (weight_sum <= 0.0) continue;  // isolated: p^w = p (A13)

@@ -694,7 +694,7 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   L.inv_c = 1.0 / L.c;
   // Trilinear interpolation adds (c^2 / 2) t (1 - t) d2W/dx2 per axis, on average (c^2 / 12)
   // lap W: the nodes hold K = W - (c^2 / 12) lap W = q^3 + 3.5 c^2 q^2 - 2 c^2 h^2 q, whose
-  // interpolant matches W to O(c^4) on average. Measured (README): RMS error 2.5x smaller at 4
+  // interpolant matches W to O(c^4) on average. Measured (docs/physics.md §7.3): RMS error 2.5x smaller at 4
   // nodes per radius, 1.7x at 3, but 1.03x larger at 2 (c = h / 2 is too coarse for the Taylor
   // argument), where it is left out.
   if (cfg.grid_cells_per_radius >= 3) {

@@ -82,7 +82,7 @@ bool BendConfig::validate(const std::string& p, std::string* why) const {
       !finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why))
     return false;
   // Bending switched off (k_b = 0) is a valid, calm model; when it is on, the follower-like force
-  // needs enough smoothing and stiffness to settle (method.md §10.15; measured bound in README).
+  // needs enough smoothing and stiffness to settle (docs/physics.md §10.15; measured bound in docs/physics.md §2.6).
   if (stiffness_n_per_m > 0.0) {
     if (smoothing_edges < kMinBendSmoothingEdges) {
       if (why) {

@@ -48,7 +48,7 @@ bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& he
   }
   // The springs must hold the hanging strand within the strain limit: the root edge carries the
   // weight of the whole strand, and the stretch and bend springs both act along it (the bend
-  // spring of eq. 4 compares whole vectors, README "Curly hair"). Past the limit the limiter
+  // spring of eq. 4 compares whole vectors, docs/physics.md §2.6). Past the limit the limiter
   // fights the springs on every substep and pumps energy into long strands (measured: a
   // 128-particle strand at 5 % reached 358 m/s still hanging).
   const double axial_k = config.stretch.stiffness_n_per_m + config.bend.stiffness_n_per_m;
@@ -165,7 +165,7 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
     axis = (turn * (helix[size - 1] - helix[0])).normalized();
     m.helix_axis[s] = axis;
   }
-  // Sag-free start (method.md §8): the head starts at identity orientation in every scene
+  // Sag-free start (docs/physics.md §8): the head starts at identity orientation in every scene
   // (headPose(motion, 0) = motion.base, not a scene parameter), so gravity in the head frame is
   // the world gravity.
   if (config.sag_free) makeSagFree(config, config.gravity_m_s2, &m);

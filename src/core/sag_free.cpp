@@ -20,7 +20,7 @@ namespace wet_curly_hair {
 // (transported along the alpha_b-smoothed groom from the root frame) are all fixed; only the
 // rest parameters L_i, t^loc_i, c_i are free, and f_i is affine in each.
 //
-// Which rest parameters (method.md §8, "solve rest parameters, not positions"; its Iben analogue
+// Which rest parameters (docs/physics.md §8, "solve rest parameters, not positions"; its Iben analogue
 // of Hsu et al.'s local step): the part of W_i ALONG the edge goes to the stretch spring, the
 // only spring whose force follows the edge under any deformation, as a real hanging hair carries
 // its weight (L_i := |e_i| - (W_i . e^_i) / k_s, §8's first bullet); the part ACROSS the edge

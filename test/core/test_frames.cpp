@@ -1,4 +1,4 @@
-// Frames parallel-transported along the smoothed curve (method.md §2.4, §10.5).
+// Frames parallel-transported along the smoothed curve (docs/physics.md §2.4, §10.5).
 #include <gtest/gtest.h>
 
 #include <cmath>

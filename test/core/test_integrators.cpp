@@ -1,4 +1,4 @@
-// The integrators (README "Speed against error"): the theta methods against the analytic linear
+// The integrators (docs/performance.md): the theta methods against the analytic linear
 // oscillator (implicit midpoint keeps its energy exactly and turns at tan(w' h / 2) = w h / 2;
 // backward Euler loses amplitude by 1 / sqrt(1 + (w h)^2) per step), rest stays rest, large steps
 // stay stable, and results do not depend on the thread count (bit for bit).

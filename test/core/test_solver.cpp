@@ -1,4 +1,4 @@
-// Physical invariants of the curly-hair step (method.md §2, §9): rest stays rest, a hanging
+// Physical invariants of the curly-hair step (docs/physics.md §2, §9): rest stays rest, a hanging
 // chain stretches as its weight says, rigid motion stays rigid, strain stays limited, no
 // flutter inside the validated range (and flutter outside it), no energy from nowhere, repairs.
 #include <gtest/gtest.h>
@@ -227,7 +227,7 @@ TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
   // Default damping, still head, curls dropped under gravity: total energy (kinetic + gravity +
   // springs) at each whole second is not above the previous second's while the hair moves.
   //
-  // Measured finding (README "Energy"): the bending force of eq. (4) is not the gradient of an
+  // Measured finding (docs/physics.md §2.6 "Energy"): the bending force of eq. (4) is not the gradient of an
   // energy (frames come from the current curve; BendForceIsNotAnEnergyGradient below). Once the
   // hair has settled (kinetic energy below 1e-8 J) it creeps toward the equilibrium of that
   // force, which is not the minimum of the frame-fixed energy: the total then rises by about

@@ -1,4 +1,4 @@
-// "No allocation in a step" (README "Speed against error"): step() runs on the preallocated
+// "No allocation in a step" (docs/performance.md): step() runs on the preallocated
 // HairState only. This binary counts every call of the global operator new; after a warm-up
 // (the cohesion grid may size its buffers on the first wet step), further steps of a wet,
 // cohesive, nodding scene with an obstacle in reach must allocate nothing, for every integrator

@@ -1,4 +1,4 @@
-// The spring kernels of eqs. (1), (4), (5) and the strain limiting of Iben/Selle (method.md §2).
+// The spring kernels of eqs. (1), (4), (5) and the strain limiting of Iben/Selle (docs/physics.md §2).
 #include <gtest/gtest.h>
 
 #include "wet_curly_hair/core/springs.h"

@@ -1,4 +1,4 @@
-// Kernels of the wet model (Kim 2023 eqs. 6-9, 12, 13; method.md A6-A10, A15, A17).
+// Kernels of the wet model (Kim 2023 eqs. 6-9, 12, 13; docs/physics.md A6-A10, A15, A17).
 #include <gtest/gtest.h>
 
 #include <cmath>

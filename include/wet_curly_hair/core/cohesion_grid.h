@@ -1,5 +1,5 @@
 // Approximate evaluation of the stable cohesion of eq. (10) on a lattice
-// (solver.cohesion.evaluation = "grid", README "Cohesion evaluation").
+// (solver.cohesion.evaluation = "grid", docs/physics.md §7.3).
 //
 // Every kernel value W(|p_i - p_j|) of the exact sums is replaced by its trilinear interpolant
 // over the lattice cell holding p_j: W~_ij = sum_n t_jn W(|p_i - x_n|), t_jn the trilinear

@@ -1,4 +1,4 @@
-// Configuration of the solver, one struct per component (design.md, style.md §3).
+// Configuration of the solver, one struct per component.
 // Every field has a default, an SI unit in its name or comment, and a valid range checked by
 // validate(), which names the offending field with its dotted scene-YAML name.
 #pragma once
@@ -10,7 +10,7 @@
 
 namespace wet_curly_hair {
 
-/// Stretch spring, eq. (1), with Selle-style strain limiting (method.md §2.2, §3).
+/// Stretch spring, eq. (1), with Selle-style strain limiting (docs/physics.md §2.2, §3).
 struct StretchConfig {
   double stiffness_n_per_m = 500.0;  ///< k_s, N/m.
   double damping_ns_per_m = 0.11;    ///< c_s, N·s/m (about 0.25 of critical for 1e-4 kg).
@@ -19,7 +19,7 @@ struct StretchConfig {
   /// may change its length by at most this fraction of the rest length per substep.
   double strain_rate_limit_per_substep = 0.01;
   /// Velocity after a strain-limit projection: "displacement" adds displacement / dt (Selle
-  /// 2008, method.md §2.2b); "inelastic" removes the edge's stretching relative velocity.
+  /// 2008, docs/physics.md §2.2b); "inelastic" removes the edge's stretching relative velocity.
   std::string limit_velocity = "displacement";
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -32,7 +32,7 @@ struct BendConfig {
   /// buildModel, which knows the masses).
   double damping_ns_per_m = 0.14;
   /// alpha_b, the IIR smoothing length of eq. (2), in mean rest edge lengths (dimensionless).
-  /// Below kMinBendSmoothingEdges the follower-like bending force self-excites (method.md §10.15).
+  /// Below kMinBendSmoothingEdges the follower-like bending force self-excites (docs/physics.md §10.15).
   double smoothing_edges = 6.0;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -45,7 +45,7 @@ struct CoreSpringConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Particle collision with the head (Bridson et al., method.md §6).
+/// Particle collision with the head (Bridson et al., docs/physics.md §6).
 struct CollisionConfig {
   bool head_enabled = true;
   double offset_m = 0.001;  ///< delta: particles are kept this far outside the surface, m.
@@ -80,9 +80,9 @@ struct IntegratorConfig {
   /// relative to the head; the state stays double between steps, so float is rounded in and out
   /// once per step), or "auto": float in one register of the machine the core was compiled for,
   /// float16 with AVX-512, float8 without. One key, so that any value set alone is valid.
-  /// Default auto: float costs 0.52-0.70 of double at the same error to 3-4 digits, and a block
+  /// Default auto: float costs 0.50-0.70 of double at the same error to 3-4 digits, and a block
   /// wider than one register costs 3x per particle on an AVX2 machine (float16 against float8,
-  /// double8 against double4; README "Float or double").
+  /// double8 against double4; docs/performance.md "Float or double").
   std::string lane_layout = "auto";
   /// lane_layout with "auto" resolved for this build (no allocation: the block loop asks).
   std::string_view resolvedLaneLayout() const {
@@ -109,7 +109,7 @@ struct IntegratorConfig {
   double teleport_angle_rad = 1.5;
   /// Explicit damping sub-iterations per substep (tau = dt / n). A minimum: the solver uses more
   /// when the substep needs them for the explicit damping to be stable, tau <= 0.9 m / (2 C) with
-  /// C = c_s + c_b + c_c (method.md §10.1); see dampingPassCount().
+  /// C = c_s + c_b + c_c (docs/physics.md §10.1); see dampingPassCount().
   int damping_passes = 2;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -118,30 +118,30 @@ struct IntegratorConfig {
 struct CurlConfig {
   bool enabled = true;  ///< acts only on wet particles (saturation > 0).
   /// "spring": the restoring target-edge variant of A10, k_w sigma (M h_edge - e) (default, chosen
-  /// by measurement, README "Curl exaggeration"); "literal": eq. (9) as a couple w_h sigma M h_edge.
+  /// by measurement, docs/physics.md §1.2); "literal": eq. (9) as a couple w_h sigma M h_edge.
   std::string mode = "spring";
   double weight_n_per_m = 25.0;  ///< w_h (spring: k_w), N/m; the force scales with saturation.
   double helix_radius_m = 0.006; ///< r of eq. (6): the wet curl's radius, m.
   double helix_pitch_m = 0.018;  ///< rise per turn of the wet curl (2 pi p of eq. 6), m.
   /// M follows the strand's root-to-tip axis with this time constant (s; 0: at once, literal).
-  /// method.md §10.6: M taken at once from the moving axis is a follower load that self-excites.
+  /// docs/physics.md §10.6: M taken at once from the moving axis is a follower load that self-excites.
   double rotation_time_constant_s = 0.1;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
 /// Cohesion of wet strands. "ours": the stable display-position cohesion of eq. (10) (A11-A14),
 /// computed after each step and never fed back; "lin" and "kim": force-based reconstructions of
-/// Lin 2015 and Kim et al. 2017 (method.md §4, §5: their exact laws are not public);
+/// Lin 2015 and Kim et al. 2017 (docs/physics.md §4, §5: their exact laws are not public);
 /// "off": none.
 struct CohesionConfig {
   std::string mode = "ours";
   double tightness = 0.85;   ///< lambda of eq. (10) (A12 blend), dimensionless.
-  double radius_m = 0.04;    ///< kernel support h, m (chosen with include_self, README).
+  double radius_m = 0.04;    ///< kernel support h, m (chosen with include_self, docs/physics.md §1.3).
   /// Include the particle itself in the Shepard weights of eq. (10) (A13). Chosen by measurement
-  /// (README "Cohesion"): without it p^w jumps when a neighbour enters the kernel support.
+  /// (docs/physics.md §1.3): without it p^w jumps when a neighbour enters the kernel support.
   bool include_self = true;
   /// lin: attraction spring per particle pair, N/m. The default clumps the cohesion scene about as
-  /// much as "ours" does (README "Cohesion"), so that the comparison is at equal clumping.
+  /// much as "ours" does (docs/physics.md §1.3), so that the comparison is at equal clumping.
   double lin_stiffness_n_per_m = 0.004;
   /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j), SI), calibrated
   /// the same way.
@@ -149,14 +149,14 @@ struct CohesionConfig {
   /// How eq. (10) is evaluated (mode "ours"): "exact" sums over every neighbour within h;
   /// "grid" splats the particles onto a lattice of node spacing h / grid_cells_per_radius
   /// (trilinear) and evaluates the kernel at the nodes, at a cost per particle that does not
-  /// grow with the number of neighbours (README "Cohesion evaluation": error and cost).
+  /// grow with the number of neighbours (docs/physics.md §7.3: error and cost).
   std::string evaluation = "exact";
   int grid_cells_per_radius = 4;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
   /// "grid": the gathers read single-precision copies of the node sums and, like the own-strand
   /// share, evaluate the kernel in float (twice the SIMD lanes); particles whose other-strand
   /// weight is below 1e-3 of their own strand's, where float round-off would dominate the
-  /// own-strand cancellation, have both sums redone in double. Chosen by measurement (README
-  /// "Cohesion evaluation").
+  /// own-strand cancellation, have both sums redone in double. Chosen by measurement (docs/physics.md
+  /// §7.3).
   bool grid_single_precision = true;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -180,7 +180,7 @@ struct StiffnessConfig {
   double dry_factor = 1.0;          ///< gamma1 per reference step (dry).
   double reference_step_s = 1e-4;   ///< the step the factors are given for, s.
   /// Damp the velocity relative to the head's rigid motion (true) or the absolute velocity
-  /// (false, literal): absolute damping makes hair lag a moving head (method.md §10.2).
+  /// (false, literal): absolute damping makes hair lag a moving head (docs/physics.md §10.2).
   bool relative_to_head = true;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -208,7 +208,7 @@ struct SolverConfig {
   StiffnessConfig stiffness;
   ObstacleCollisionConfig obstacle;
   Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);  ///< world frame, m/s^2.
-  /// Sag-free start (method.md §8, README "Sag-free start"): buildModel solves the stretch rest
+  /// Sag-free start (docs/physics.md §8, docs/physics.md §8): buildModel solves the stretch rest
   /// lengths and bending targets so that the groom is an equilibrium under gravity_m_s2 on the
   /// head at its start pose (identity orientation, as every scene starts; makeSagFree takes
   /// another head-frame gravity). Needs bend.stiffness_n_per_m > 0 when gravity is not zero.
@@ -216,8 +216,8 @@ struct SolverConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Bending flutter bounds (method.md §10.15), measured on a hanging curly strand and tested on
-/// both sides by test/core/test_solver.cpp (BendingFlutter*), see README "Bending flutter".
+/// Bending flutter bounds (docs/physics.md §10.15), measured on a hanging curly strand and tested on
+/// both sides by test/core/test_solver.cpp (BendingFlutter*), see docs/physics.md §2.6.
 /// The follower-like bending force self-excites at any step size when alpha_b is too short for
 /// its damping: at critical bend damping it flutters at 2 edge lengths and is calm at 3; at a
 /// quarter of critical it flutters at 4 and is calm at 5.

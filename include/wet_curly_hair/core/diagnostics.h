@@ -17,7 +17,7 @@ StrainStats edgeStrain(const HairModel& model, const HairState& state);
 double maxHeadPenetration(const HairModel& model, const HairState& state, const Pose& head_pose);
 
 /// Energy parts (J). Bending and core energies are evaluated with the frames of the current
-/// smoothed curve held fixed (the bending force is not an energy gradient, method.md §2.6).
+/// smoothed curve held fixed (the bending force is not an energy gradient, docs/physics.md §2.6).
 struct EnergyParts {
   double kinetic = 0.0;
   double gravity = 0.0;  ///< -m g . x, relative to the world origin.

@@ -56,7 +56,7 @@ Groom generateGroom(const GroomConfig& config, const EllipsoidShape& head);
 
 /// Mean edge length for a helix of radius r and rise per turn `pitch` sampled at equal chords of
 /// length `edge`: solves l^2 = 4 r^2 sin^2(dt/2) + (pitch/2pi)^2 dt^2 for the angle step dt by
-/// bisection (method.md A9). Returns dt in (0, pi]; requires edge > 0.
+/// bisection (docs/physics.md A9). Returns dt in (0, pi]; requires edge > 0.
 double helixAngleStepForChord(double radius_m, double pitch_m, double edge_m);
 
 }  // namespace wet_curly_hair

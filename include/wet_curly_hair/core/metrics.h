@@ -1,4 +1,4 @@
-// Measurements of the hair's shape used to reproduce the paper's comparisons (README tables):
+// Measurements of the hair's shape used to reproduce the paper's comparisons (docs/paper.md):
 // clump tightness, tangles, curl radius and pitch of the tips.
 #pragma once
 

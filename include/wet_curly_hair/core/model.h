@@ -1,4 +1,4 @@
-// HairModel: everything about the hair that is constant after load (design.md "The core").
+// HairModel: everything about the hair that is constant after load .
 #pragma once
 
 #include <cstdint>
@@ -48,7 +48,7 @@ struct HairModel {
 };
 
 /// Builds the model from a groom (head frame) and the solver config (the smoothing lengths and
-/// masses enter the precompute of method.md §9.1). Returns false with a reason on bad input.
+/// masses enter the precompute of docs/physics.md §9.1). Returns false with a reason on bad input.
 bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& head,
                 const SolverConfig& config, HairModel* model, std::string* why);
 

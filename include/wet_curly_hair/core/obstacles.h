@@ -1,6 +1,6 @@
 // External obstacles in the world frame, each with a signed distance: analytic shapes (sphere,
 // box, plane) and a dense grid field (an OctoMap turned into a DenseSdf, placed by its pose).
-// Obstacle collision (method.md §6) and adhesion (eqs. 11-12) read them through one interface.
+// Obstacle collision (docs/physics.md §6) and adhesion (eqs. 11-12) read them through one interface.
 #pragma once
 
 #include <memory>

@@ -1,4 +1,4 @@
-// Sag-free start (method.md §8, after Hsu et al. 2023): solve the REST parameters of the springs,
+// Sag-free start (docs/physics.md §8, after Hsu et al. 2023): solve the REST parameters of the springs,
 // not the positions, so that the groomed pose is an equilibrium under gravity on the still head.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Saturation: a per-particle field in [0, 1] (method.md A18: authored, not simulated), set or
+// Saturation: a per-particle field in [0, 1] (docs/physics.md A18: authored, not simulated), set or
 // added by strand list, by region (sphere or box, in the world or head frame), uniform or as a
 // root-to-tip ramp, and clamped to [0, 1].
 #pragma once

@@ -1,4 +1,4 @@
-// HairState: the mutable, preallocated state of the simulation (design.md "The core").
+// HairState: the mutable, preallocated state of the simulation .
 #pragma once
 
 #include <cstdint>
@@ -9,7 +9,7 @@
 
 namespace wet_curly_hair {
 
-/// Numerical trouble detected and repaired, never hidden (style.md §11).
+/// Numerical trouble detected and repaired, never hidden.
 struct WarningStats {
   uint64_t nonfinite_repairs = 0;  ///< strands restored because a value went NaN/Inf.
   uint64_t strain_repairs = 0;     ///< strands restored because strain ran past the bound.

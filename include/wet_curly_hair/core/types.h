@@ -38,7 +38,7 @@ struct Pose {
 };
 
 /// Pose at fraction s in [0, 1] between a and b: linear in translation, slerp in rotation.
-/// The roots are moved with this at every substep (method.md §9.2 step 1).
+/// The roots are moved with this at every substep (docs/physics.md §9.2 step 1).
 inline Pose interpolate(const Pose& a, const Pose& b, double s) {
   Pose p;
   p.translation = (1.0 - s) * a.translation + s * b.translation;

@@ -85,7 +85,7 @@ WCH_INLINE double poly6Shape(double r2, double h2) {
   return x * x * x;
 }
 
-/// Akinci et al. 2013 cohesion kernel C(r) (method.md §7.2), support h.
+/// Akinci et al. 2013 cohesion kernel C(r) (docs/physics.md §7.2), support h.
 WCH_INLINE double akinciCohesionKernel(double r, double h) {
   if (!(r > 0.0) || r > h) return 0.0;
   const double k = 32.0 / (M_PI * std::pow(h, 9));
