@@ -77,7 +77,9 @@ void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model,
       }
       if (kb > 0.0) {  // k_b = 0 with gravity is refused by SolverConfig::validate
         Vec3& t_loc = m.bend_local_target[begin + i];
-        const Vec3 shifted = frames[i].transpose() * (e - rest_of_bend / kb);
+        // F^T (e - W / k_b), written as the stored F^T e plus the shift, so that a strand that
+        // carries nothing keeps its targets to the bit.
+        const Vec3 shifted = t_loc - frames[i].transpose() * (rest_of_bend / kb);
         local.max_bend_shift_m = std::max(local.max_bend_shift_m, (shifted - t_loc).norm());
         t_loc = shifted;
       }

@@ -684,27 +684,34 @@ void substepBlock(Block<S>& blk, const SubstepMotion& motion) {
   collideAndLimit(blk, motion, laps);
 }
 
+/// Sets up the block of `active` strands from first_strand (flags: one per lane, the padding
+/// lanes repeating the last strand's) and gathers it into the lanes.
+template <typename S>
+void initBlock(Block<S>* blk, int first_strand, int active, const StrandFlags* flags) {
+  const HairModel& model = blk->model;
+  blk->n = model.strandSize(first_strand);
+  blk->edges = blk->n - 1;
+  blk->active = active;
+  blk->flags = flags;
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    blk->strand[l] = first_strand + std::min(l, active - 1);
+    blk->begin[l] = model.strandBegin(blk->strand[l]);
+  }
+  blk->origin = blk->inputs.head_start.translation;
+  blk->a = carveBlockArrays<S>(blk->scratch);
+  planBlockStages(*blk);
+  gatherBlock(*blk);
+}
+
 /// Substeps k_begin .. k_end - 1 of a step of nsub substeps for the block of `active` strands
-/// from first_strand (flags: one per lane, the padding lanes repeating the last strand's).
-/// Returns the largest strain before limiting.
+/// from first_strand. Returns the largest strain before limiting.
 template <typename S>
 double stepStrandBlock(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
                        const StepInputs& inputs, int first_strand, int active,
                        const StrandFlags* flags, int k_begin, int k_end, int nsub, double h,
                        HairState* state, StrandScratch* scratch, StepStats* stats) {
   Block<S> blk(model, config, inputs, plan, state, scratch, stats, h);
-  blk.n = model.strandSize(first_strand);
-  blk.edges = blk.n - 1;
-  blk.active = active;
-  blk.flags = flags;
-  for (int l = 0; l < Block<S>::kWidth; ++l) {
-    blk.strand[l] = first_strand + std::min(l, active - 1);
-    blk.begin[l] = model.strandBegin(blk.strand[l]);
-  }
-  blk.origin = inputs.head_start.translation;
-  blk.a = carveBlockArrays<S>(scratch);
-  planBlockStages(blk);
-  gatherBlock(blk);
+  initBlock(&blk, first_strand, active, flags);
   for (int k = k_begin; k < k_end; ++k)
     substepBlock(blk, substepMotion(inputs, double(k) / nsub, double(k + 1) / nsub, h));
   scatterBlock(blk);

@@ -60,7 +60,7 @@ HairModel makeModel(const Groom& g, const SolverConfig& c) {
 }
 
 /// Net force on every particle at the rest pose on the still head (identity), computed as
-/// substepStrand's steps 2-3: frames along the alpha_b-smoothed curve, stretch + bend + core per
+/// The stepper's stages 2-3 (strand_block.h): frames along the alpha_b-smoothed curve, stretch + bend + core per
 /// edge with F_i += f, F_{i+1} -= f, plus gravity.
 Vec3List restPoseForces(const HairModel& m, const SolverConfig& c) {
   Vec3List force(m.particleCount(), Vec3::Zero());
