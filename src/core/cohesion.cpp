@@ -3,10 +3,16 @@
 #include <cmath>
 #include <cstdint>
 
+#include "parallel.h"
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
+
+using detail::parallelFor;
+using detail::parallelRegion;
+using detail::parallelSum;
+using detail::Schedule;
 
 void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* grid, int threads) {
   grid->cell_m = cell_m;
@@ -17,31 +23,29 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
   // Hashing in parallel; the counting sort (a count, a prefix sum and a scatter: three plain
   // passes) stays serial so the order within a cell (and so every sum over neighbours) is the
   // same for any thread count.
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
+  parallelFor(threads, Schedule::kStatic, 0, int64_t(n), [&](int64_t i) {
     const Vec3& x = positions[i];
-    grid->cell_of[i] = detail::cellHash(detail::cellCoord(x.x(), cell_m),
-                                        detail::cellCoord(x.y(), cell_m),
-                                        detail::cellCoord(x.z(), cell_m), mask);
-  }
+    grid->cell_of[i] =
+        detail::cellHash(detail::cellCoord(x.x(), cell_m), detail::cellCoord(x.y(), cell_m),
+                         detail::cellCoord(x.z(), cell_m), mask);
+  });
   for (int64_t i = 0; i < n; ++i) ++grid->cell_start[grid->cell_of[i] + 1];
   for (uint32_t c = 0; c < table; ++c) grid->cell_start[c + 1] += grid->cell_start[c];
   // Counting sort; cell_start[c] is used as the running cursor, then shifted back.
-  for (int64_t i = 0; i < n; ++i) grid->sorted[grid->cell_start[grid->cell_of[i]]++] = static_cast<uint32_t>(i);
+  for (int64_t i = 0; i < n; ++i)
+    grid->sorted[grid->cell_start[grid->cell_of[i]]++] = static_cast<uint32_t>(i);
   for (uint32_t c = table; c > 0; --c) grid->cell_start[c] = grid->cell_start[c - 1];
   grid->cell_start[0] = 0;
   // Within each bucket, order the entries by cell key (then particle index): each cell becomes
   // one contiguous run. Buckets hold a few entries: insertion sort, deterministic; buckets are
   // independent, so keys and sorts run in parallel (the result is the same for any thread count).
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int64_t k = 0; k < n; ++k) {
+  parallelFor(threads, Schedule::kStatic, 0, int64_t(n), [&](int64_t k) {
     const Vec3& x = positions[grid->sorted[k]];
-    grid->sorted_key[k] = detail::cellKey(detail::cellCoord(x.x(), cell_m),
-                                          detail::cellCoord(x.y(), cell_m),
-                                          detail::cellCoord(x.z(), cell_m));
-  }
-#pragma omp parallel for num_threads(threads) schedule(static, 1024)
-  for (int64_t cell = 0; cell < int64_t(table); ++cell) {
+    grid->sorted_key[k] =
+        detail::cellKey(detail::cellCoord(x.x(), cell_m), detail::cellCoord(x.y(), cell_m),
+                        detail::cellCoord(x.z(), cell_m));
+  });
+  parallelFor(threads, Schedule::kStatic, 1024, int64_t(int64_t(table)), [&](int64_t cell) {
     const uint32_t c = static_cast<uint32_t>(cell);
     const uint32_t lo = grid->cell_start[c], hi = grid->cell_start[c + 1];
     for (uint32_t a = lo + 1; a < hi; ++a) {
@@ -57,9 +61,8 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
       grid->sorted_key[b] = key;
       grid->sorted[b] = idx;
     }
-  }
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int64_t k = 0; k < n; ++k) {
+  });
+  parallelFor(threads, Schedule::kStatic, 0, int64_t(n), [&](int64_t k) {
     const uint32_t i = grid->sorted[k];
     const Vec3& x = positions[i];
     grid->sorted_strand[k] = grid->strand_of[i];
@@ -67,7 +70,7 @@ void buildNeighborGrid(const Vec3List& positions, double cell_m, NeighborGrid* g
     grid->sorted_x[k] = x.x();
     grid->sorted_y[k] = x.y();
     grid->sorted_z[k] = x.z();
-  }
+  });
 }
 
 namespace {
@@ -130,8 +133,8 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
   const Vec3List& p = state->position;
   NeighborGrid& grid = state->grid;
   const double h2 = h * h;
-  // Normalised poly6 (docs/physics.md §7.1) so that V = m / rho is a volume (the kim baseline's normals
-  // need it; in the Shepard weights of eq. 10 the constant cancels).
+  // Normalised poly6 (docs/physics.md §7.1) so that V = m / rho is a volume (the kim baseline's
+  // normals need it; in the Shepard weights of eq. 10 the constant cancels).
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   const int64_t n = model.particleCount();
   for (int64_t k = 0; k < n; ++k) grid.sorted_mass[k] = model.mass_kg[grid.sorted[k]];
@@ -139,15 +142,14 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
   const double* __restrict sy = grid.sorted_y.data();
   const double* __restrict sz = grid.sorted_z.data();
   const double* __restrict sm = grid.sorted_mass.data();
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
-  for (int64_t i = 0; i < n; ++i) {
+  parallelFor(threads, Schedule::kDynamic, 256, int64_t(n), [&](int64_t i) {
     const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
     double rho = 0.0;
     forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
       rho += densityRun(sx, sy, sz, sm, lo, hi, xi, yi, zi, h2);
     });
     state->density[i] = norm * rho;
-  }
+  });
   for (int64_t k = 0; k < n; ++k) {
     const uint32_t j = grid.sorted[k];
     grid.sorted_volume[k] = model.mass_kg[j] / state->density[j];
@@ -172,7 +174,6 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
   // collisions) cost 1.7x and 2.8x more on 100 wet strands.
   buildNeighborGrid(p, h, &state->grid, threads);
   computeDensity(model, h, state, threads);
-  int clumped = 0;
   const NeighborGrid& grid = state->grid;
   const double* __restrict sx = grid.sorted_x.data();
   const double* __restrict sy = grid.sorted_y.data();
@@ -181,30 +182,31 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
   const double* __restrict ss = grid.sorted_saturation.data();
   const double* __restrict sstrand = grid.sorted_strand_value.data();
   // Each particle writes only its own p^w: the result is the same for any thread count.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : clumped)
-  for (int i = 0; i < model.particleCount(); ++i) {
-    if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
-    const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
-    const double own = grid.strand_of[i];
-    // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
-    double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
-    forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
-      const CohesionSums run = cohesionRun(sx, sy, sz, sv, ss, sstrand, lo, hi, xi, yi, zi, h2, own);
-      weight_sum += run.weight;
-      px += run.x;
-      py += run.y;
-      pz += run.z;
-    });
-    const Vec3 pull(px, py, pz);
-    // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
-    // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
-    // crosses the kernel support: measured as jitter under rotation (docs/physics.md §1.3).
-    if (c.include_self && weight_sum > 0.0)
-      weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
-    if (weight_sum <= 0.0) continue;  // isolated: p^w = p (A13)
-    state->wet_position[i] = p[i] + (c.tightness / weight_sum) * pull;
-    ++clumped;
-  }
+  const int clumped =
+      static_cast<int>(parallelSum(threads, 256, int(model.particleCount()), [&](int i) -> int {
+        if (state->saturation[i] <= 0.0) return 0;  // dry particles keep p^w = p
+        const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
+        const double own = grid.strand_of[i];
+        // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
+        double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
+        forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
+          const CohesionSums run =
+              cohesionRun(sx, sy, sz, sv, ss, sstrand, lo, hi, xi, yi, zi, h2, own);
+          weight_sum += run.weight;
+          px += run.x;
+          py += run.y;
+          pz += run.z;
+        });
+        const Vec3 pull(px, py, pz);
+        // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
+        // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
+        // crosses the kernel support: measured as jitter under rotation (docs/physics.md §1.3).
+        if (c.include_self && weight_sum > 0.0)
+          weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
+        if (weight_sum <= 0.0) return 0;  // isolated: p^w = p (A13)
+        state->wet_position[i] = p[i] + (c.tightness / weight_sum) * pull;
+        return 1;
+      }));
   return clumped;
 }
 
@@ -220,13 +222,13 @@ int computeCohesionForces(const HairModel& model, const CohesionConfig& c, HairS
     const double rest = 0.25 * h;
     for (int i = 0; i < n; ++i) {
       if (state->saturation[i] <= 0.0) continue;
-      forEachOtherStrandNeighbor(state->grid, p, state->grid.strand_of[i], p[i], h,
-                                 [&](uint32_t j, double r2) {
-                                   const double s = std::min(state->saturation[i], state->saturation[j]);
-                                   const double r = std::sqrt(r2);
-                                   if (s <= 0.0 || r < 1e-12) return;
-                                   f[i] += (c.lin_stiffness_n_per_m * s * (r - rest) / r) * (p[j] - p[i]);
-                                 });
+      forEachOtherStrandNeighbor(
+          state->grid, p, state->grid.strand_of[i], p[i], h, [&](uint32_t j, double r2) {
+            const double s = std::min(state->saturation[i], state->saturation[j]);
+            const double r = std::sqrt(r2);
+            if (s <= 0.0 || r < 1e-12) return;
+            f[i] += (c.lin_stiffness_n_per_m * s * (r - rest) / r) * (p[j] - p[i]);
+          });
     }
   } else {
     // Akinci et al. 2013 surface tension: normals from the colour field of the other strands'
@@ -235,33 +237,31 @@ int computeCohesionForces(const HairModel& model, const CohesionConfig& c, HairS
     const double kgrad = 48.0 / (M_PI * h * h * h);
     for (int i = 0; i < n; ++i) {
       Vec3 normal = Vec3::Zero();
-      forEachOtherStrandNeighbor(state->grid, p, state->grid.strand_of[i], p[i], h,
-                                 [&](uint32_t j, double r2) {
-                                   const double r = std::sqrt(r2);
-                                   if (r < 1e-12) return;
-                                   const double q = r / h;
-                                   const double g = q <= 0.5 ? kgrad * q * (3.0 * q - 2.0) / h
-                                                             : -kgrad * (1.0 - q) * (1.0 - q) / h;
-                                   normal += (model.mass_kg[j] / state->density[j]) * g * (p[i] - p[j]) / r;
-                                 });
+      forEachOtherStrandNeighbor(
+          state->grid, p, state->grid.strand_of[i], p[i], h, [&](uint32_t j, double r2) {
+            const double r = std::sqrt(r2);
+            if (r < 1e-12) return;
+            const double q = r / h;
+            const double g =
+                q <= 0.5 ? kgrad * q * (3.0 * q - 2.0) / h : -kgrad * (1.0 - q) * (1.0 - q) / h;
+            normal += (model.mass_kg[j] / state->density[j]) * g * (p[i] - p[j]) / r;
+          });
       // Outward (away from the neighbours), so that -gamma m (n_i - n_j) pulls a surface
       // particle back toward the clump; the colour-field gradient itself points inward.
       state->normal_scratch[i] = -h * normal;
     }
     for (int i = 0; i < n; ++i) {
       if (state->saturation[i] <= 0.0) continue;
-      forEachOtherStrandNeighbor(state->grid, p, state->grid.strand_of[i], p[i], h,
-                                 [&](uint32_t j, double r2) {
-                                   const double s = 0.5 * (state->saturation[i] + state->saturation[j]);
-                                   const double r = std::sqrt(r2);
-                                   if (r < 1e-12) return;
-                                   const Vec3 xij = (p[i] - p[j]) / r;
-                                   const double g = c.kim_surface_tension * s;
-                                   f[i] -= g * model.mass_kg[i] * model.mass_kg[j] *
-                                           akinciCohesionKernel(r, h) * xij;
-                                   f[i] -= g * model.mass_kg[i] *
-                                           (state->normal_scratch[i] - state->normal_scratch[j]);
-                                 });
+      forEachOtherStrandNeighbor(
+          state->grid, p, state->grid.strand_of[i], p[i], h, [&](uint32_t j, double r2) {
+            const double s = 0.5 * (state->saturation[i] + state->saturation[j]);
+            const double r = std::sqrt(r2);
+            if (r < 1e-12) return;
+            const Vec3 xij = (p[i] - p[j]) / r;
+            const double g = c.kim_surface_tension * s;
+            f[i] -= g * model.mass_kg[i] * model.mass_kg[j] * akinciCohesionKernel(r, h) * xij;
+            f[i] -= g * model.mass_kg[i] * (state->normal_scratch[i] - state->normal_scratch[j]);
+          });
     }
   }
   int active = 0;

@@ -6,13 +6,15 @@
 #include <cstring>
 #include <utility>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
-
+#include "parallel.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
+
+using detail::parallelFor;
+using detail::parallelRegion;
+using detail::parallelSum;
+using detail::Schedule;
 
 namespace {
 
@@ -479,13 +481,7 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int
 /// as in a serial loop, so the lattice is bit-identical for any thread count.
 template <typename Add>
 void splat(const Lattice& L, const CohesionNodeGrid& g, int n, int threads, Add add) {
-#pragma omp parallel num_threads(threads)
-  {
-#ifdef _OPENMP
-    const int64_t t = omp_get_thread_num(), team = omp_get_num_threads();
-#else
-    const int64_t t = 0, team = 1;
-#endif
+  parallelRegion(threads, [&](int64_t t, int64_t team) {
     const int64_t z_lo = L.nz * t / team, z_hi = L.nz * (t + 1) / team;
     for (int j = 0; j < n; ++j) {
       const int64_t cz = static_cast<int64_t>(g.kz[j]);
@@ -504,21 +500,20 @@ void splat(const Lattice& L, const CohesionNodeGrid& g, int n, int threads, Add 
         }
       }
     }
-  }
+  });
 }
 
 /// The single-precision copy of a node array (the first `nodes` entries).
 void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t nodes, int threads) {
   const double* __restrict a = from.data();
   float* __restrict b = to->data();
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int64_t k = 0; k < nodes; ++k) b[k] = static_cast<float>(a[k]);
+  parallelFor(threads, Schedule::kStatic, 0, nodes,
+              [&](int64_t k) { b[k] = static_cast<float>(a[k]); });
 }
 
 void zero(std::vector<double>* v, int64_t nodes, int threads) {
   double* a = v->data();
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int64_t k = 0; k < nodes; ++k) a[k] = 0.0;
+  parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) { a[k] = 0.0; });
 }
 
 }  // namespace
@@ -538,8 +533,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const bool single = cfg.grid_single_precision;
   // Every particle's position on the lattice, cell and trilinear fractions, once: the splats
   // and the own-strand shares use them.
-#pragma omp parallel for num_threads(threads) schedule(static)
-  for (int j = 0; j < n; ++j) {
+  parallelFor(threads, Schedule::kStatic, 0, int(n), [&](int j) {
     const Vec3 r = p[j] - L.origin;
     const double fx = r.x() * L.inv_c, fy = r.y() * L.inv_c, fz = r.z() * L.inv_c;
     g.rx[j] = r.x();
@@ -551,14 +545,14 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tx[j] = fx - g.kx[j];
     g.ty[j] = fy - g.ky[j];
     g.tz[j] = fz - g.kz[j];
-    if (!single) continue;  // the float copies are read by the float own-strand shares only
+    if (!single) return;  // the float copies are read by the float own-strand shares only
     g.kx_f[j] = static_cast<float>(g.kx[j]);
     g.ky_f[j] = static_cast<float>(g.ky[j]);
     g.kz_f[j] = static_cast<float>(g.kz[j]);
     g.tx_f[j] = static_cast<float>(g.tx[j]);
     g.ty_f[j] = static_cast<float>(g.ty[j]);
     g.tz_f[j] = static_cast<float>(g.tz[j]);
-  }
+  });
 
   // Pass 1: mass to the nodes, density and volume of every particle.
   zero(&g.scalar, nodes, threads);
@@ -567,14 +561,13 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   });
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256)
-  for (int i = 0; i < n; ++i) {
+  parallelFor(threads, Schedule::kDynamic, 256, int(n), [&](int i) {
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     const double rho = single ? gatherScalarSingle<kCells>(L, g.scalar_f.data(), ri, h2)
                               : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
     state->density[i] = norm * rho;
     g.volume[i] = model.mass_kg[i] / state->density[i];
-  }
+  });
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
@@ -607,21 +600,18 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   }
   // The own strands' shares in float, a strand at a time (strands with a wet particle only).
   if (single) {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 16)
-    for (int s = 0; s < model.strandCount(); ++s) {
+    parallelFor(threads, Schedule::kDynamic, 16, int(model.strandCount()), [&](int s) {
       const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
       bool wet_strand = false;
       for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
       if (wet_strand) ownStrandSharesSingle(L, &g, begin, end);
-    }
+    });
   }
   const double c6 = L.c * L.c * L.c * L.c * L.c * L.c;  // the float shares' lattice units
   const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
                               g.qy_f.data(), g.qz_f.data()};
-  int clumped = 0;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 256) reduction(+ : clumped)
-  for (int i = 0; i < n; ++i) {
-    if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
+  const int clumped = static_cast<int>(parallelSum(threads, 256, int(n), [&](int i) -> int {
+    if (state->saturation[i] <= 0.0) return 0;  // dry particles keep p^w = p
     // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     WetSums all =
@@ -644,12 +634,12 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     }
     double weight_sum = all.weight - own.weight;
     // Round-off of the cancellation: no other strand within reach.
-    if (!(weight_sum > 1e-9 * own.weight)) continue;
+    if (!(weight_sum > 1e-9 * own.weight)) return 0;
     const Vec3 pull = all.pull - own.pull;
     if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
     state->wet_position[i] = p[i] + (cfg.tightness / weight_sum) * pull;
-    ++clumped;
-  }
+    return 1;
+  }));
   return clumped;
 }
 
@@ -694,9 +684,9 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   L.inv_c = 1.0 / L.c;
   // Trilinear interpolation adds (c^2 / 2) t (1 - t) d2W/dx2 per axis, on average (c^2 / 12)
   // lap W: the nodes hold K = W - (c^2 / 12) lap W = q^3 + 3.5 c^2 q^2 - 2 c^2 h^2 q, whose
-  // interpolant matches W to O(c^4) on average. Measured (docs/physics.md §7.3): RMS error 2.5x smaller at 4
-  // nodes per radius, 1.7x at 3, but 1.03x larger at 2 (c = h / 2 is too coarse for the Taylor
-  // argument), where it is left out.
+  // interpolant matches W to O(c^4) on average. Measured (docs/physics.md §7.3): RMS error 2.5x
+  // smaller at 4 nodes per radius, 1.7x at 3, but 1.03x larger at 2 (c = h / 2 is too coarse for
+  // the Taylor argument), where it is left out.
   if (cfg.grid_cells_per_radius >= 3) {
     L.ka = 3.5 * L.c * L.c;
     L.kb = -2.0 * L.c * L.c * h2;

@@ -3,10 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#ifdef _OPENMP
-#include <omp.h>
-#endif
-
+#include "parallel.h"
 #include "solver_internal.h"
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/frames.h"
@@ -161,14 +158,6 @@ using detail::SolverPlan;
 
 namespace {
 
-int ompThreadIndex() {
-#ifdef _OPENMP
-  return omp_get_thread_num();
-#else
-  return 0;
-#endif
-}
-
 /// True when every position and velocity of the strand is finite; counts non-finite scalars.
 bool strandFinite(const HairModel& model, int s, const HairState& state, uint64_t* nonfinite) {
   const int begin = model.strandBegin(s);
@@ -283,16 +272,15 @@ void advanceWithCohesionForces(const HairModel& model, const SolverConfig& confi
     computeCohesionForces(model, config.cohesion, state);
     local->stage_particles[kStageCohesionForces] += model.particleCount();
     if (inputs.clock) local->stage_cpu_s[kStageCohesionForces] += inputs.clock() - t0;
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 8)
-    for (int s = 0; s < strands; ++s) {
-      const int t = ompThreadIndex();
+    detail::parallelFor(threads, detail::Schedule::kDynamic, 8, strands, [&](int s) {
+      const int t = detail::threadIndex();
       StrandFlags flags = strandFlags(model, config, inputs, s, *state);
       flags.external_force = true;
       StepStats& ts = per_thread[t];
-      const double strain = stepBlock(1, model, config, plan, inputs, s, 1, &flags, k, k + 1,
-                                      nsub, h, state, &state->scratch[t], &ts);
+      const double strain = stepBlock(1, model, config, plan, inputs, s, 1, &flags, k, k + 1, nsub,
+                                      h, state, &state->scratch[t], &ts);
       ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
-    }
+    });
   }
 }
 
@@ -309,9 +297,8 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
   const int blocks = (strands + width - 1) / width;
   // One block per grab: with 16 strands per block, 100 strands are 7 blocks, and chunks of two
   // left one thread four blocks against three.
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-  for (int blk = 0; blk < blocks; ++blk) {
-    const int t = ompThreadIndex();
+  detail::parallelFor(threads, detail::Schedule::kDynamic, 1, blocks, [&](int blk) {
+    const int t = detail::threadIndex();
     StepStats& ts = per_thread[t];
     const int first = blk * width;
     StrandFlags flags[detail::kMaxStrandLanes];
@@ -322,9 +309,9 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
         ts.strands_near_obstacles += flags[l].near_obstacle;
       }
       std::fill(flags + active, flags + block_width, flags[active - 1]);  // the padding lanes
-      const double strain = stepBlock(block_width, model, config, plan, inputs, first_strand,
-                                      active, flags, 0, nsub, nsub, h, state, &state->scratch[t],
-                                      &ts);
+      const double strain =
+          stepBlock(block_width, model, config, plan, inputs, first_strand, active, flags, 0, nsub,
+                    nsub, h, state, &state->scratch[t], &ts);
       ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
     };
     // A partial last block of two or more runs in lanes (the strand count need not be a
@@ -337,7 +324,7 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
     } else {
       for (int s = first; s < std::min(strands, first + width); ++s) run(1, s, 1);
     }
-  }
+  });
 }
 
 /// Detects, repairs and counts numerical trouble strand by strand (a non-finite value, or a
