@@ -638,6 +638,12 @@ bool importStrand(const HairFileData& file, int s, const HairImportOptions& opts
   int count = opts.resample_particles;
   if (opts.resample_edge_m > 0.0) {
     const double edges = std::round(length / opts.resample_edge_m);
+    if (!(edges + 1.0 <= kHairMaxResampledPoints)) {
+      *reason = "length " + metres(length) + " needs more than " +
+                std::to_string(kHairMaxResampledPoints) + " points at resample_edge_m " +
+                metres(opts.resample_edge_m);
+      return false;
+    }
     count = static_cast<int>(std::max<double>(kHairMinStrandPoints, edges + 1.0));
   }
   if (count > 0) {

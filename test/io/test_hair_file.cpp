@@ -821,11 +821,17 @@ TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
   addStrand(&d, {Vec3(0.1, 0, 0.2), Vec3(0.1, 0, 0.0), Vec3(0.1, 0.053, 0.0)});
   addStrand(&d, line(Vec3(0.2, 0, 0.2), 0.016, 3));  // round(1.6) = 2 edges -> 3 points.
   addStrand(&d, line(Vec3(0.3, 0, 0.2), 0.004, 3));  // round(0.4) = 0 edges -> at least 3 points.
+  addStrand(&d, line(Vec3(0.4, 0, 0.2), 1000.0, 3));  // 100001 points: more than a strand gets.
   HairImportOptions opts;
   opts.resample_edge_m = 0.01;
   Groom g;
   std::string error;
-  ASSERT_TRUE(importHairAsGroom(d, opts, &g, &error)) << error;
+  HairImportReport report;
+  ASSERT_TRUE(importHairAsGroom(d, opts, &g, &error, &report)) << error;
+  ASSERT_EQ(report.skipped.size(), 1u);
+  EXPECT_EQ(report.skipped[0].index, 4);
+  EXPECT_EQ(report.skipped[0].reason,
+            "length 1000 m needs more than 65536 points at resample_edge_m 0.01 m");
   ASSERT_EQ(g.strandCount(), 4);
   const std::vector<int> expected = {11, 26, 3, 3};
   for (int s = 0; s < 4; ++s) {

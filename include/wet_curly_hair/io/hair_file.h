@@ -149,6 +149,9 @@ constexpr double kHairMinStrandLengthM = 1e-6;
 /// Fewest points (distinct, after dropping repeats) of an imported strand: with two points a
 /// strand has one edge and no bend, so the bending and curl models have nothing to act on.
 constexpr int kHairMinStrandPoints = 3;
+/// Most particles a strand gets from HairImportOptions::resample_edge_m (a longer strand is
+/// skipped with the reason named): the most a `.hair` segments array can hold.
+constexpr int kHairMaxResampledPoints = 65536;
 /// Most strands named in HairImportReport::warning(); the rest are counted ("and N more").
 constexpr int kHairMaxNamedSkips = 5;
 
