@@ -817,8 +817,9 @@ TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
   HairFileData d;
   d.strand_offsets = {0};
   addStrand(&d, line(Vec3(0, 0, 0.2), 0.1, 4));  // 0.1 m: 10 edges of 1 cm -> 11 points.
-  // An L of 0.2 + 0.053 = 0.253 m: round(25.3) = 25 edges -> 26 points.
+  // An L of 0.2 + 0.053 = 0.253 m: round(25.3) = 25 edges -> 26 points; 0.257 m: 26 -> 27.
   addStrand(&d, {Vec3(0.1, 0, 0.2), Vec3(0.1, 0, 0.0), Vec3(0.1, 0.053, 0.0)});
+  addStrand(&d, {Vec3(0.15, 0, 0.2), Vec3(0.15, 0, 0.0), Vec3(0.15, 0.057, 0.0)});
   addStrand(&d, line(Vec3(0.2, 0, 0.2), 0.016, 3));  // round(1.6) = 2 edges -> 3 points.
   addStrand(&d, line(Vec3(0.3, 0, 0.2), 0.004, 3));  // round(0.4) = 0 edges -> at least 3 points.
   addStrand(&d, line(Vec3(0.4, 0, 0.2), 1000.0, 3));  // 100001 points: more than a strand gets.
@@ -829,12 +830,12 @@ TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
   HairImportReport report;
   ASSERT_TRUE(importHairAsGroom(d, opts, &g, &error, &report)) << error;
   ASSERT_EQ(report.skipped.size(), 1u);
-  EXPECT_EQ(report.skipped[0].index, 4);
+  EXPECT_EQ(report.skipped[0].index, 5);
   EXPECT_EQ(report.skipped[0].reason,
             "length 1000 m needs more than 65536 points at resample_edge_m 0.01 m");
-  ASSERT_EQ(g.strandCount(), 4);
-  const std::vector<int> expected = {11, 26, 3, 3};
-  for (int s = 0; s < 4; ++s) {
+  ASSERT_EQ(g.strandCount(), 5);
+  const std::vector<int> expected = {11, 26, 27, 3, 3};
+  for (int s = 0; s < 5; ++s) {
     SCOPED_TRACE("strand " + std::to_string(s));
     EXPECT_EQ(g.strandSize(s), expected[s]);
     const uint32_t b = d.strand_offsets[s], e = d.strand_offsets[s + 1];
@@ -846,7 +847,7 @@ TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
   }
   // Straight strands: the chords are the arc length over the edge count.
   EXPECT_NEAR((g.points[1] - g.points[0]).norm(), 0.01, 1e-8);
-  EXPECT_NEAR((g.points[g.strand_offsets[2] + 1] - g.points[g.strand_offsets[2]]).norm(), 0.008,
+  EXPECT_NEAR((g.points[g.strand_offsets[3] + 1] - g.points[g.strand_offsets[3]]).norm(), 0.008,
               1e-8);
 }
 
