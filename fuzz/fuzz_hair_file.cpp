@@ -121,8 +121,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   check(out.points.size() == 3 * static_cast<size_t>(points));
   check(out.strand_offsets.front() == 0);
   check(out.strand_offsets.back() == static_cast<uint32_t>(points));
-  for (int s = 0; s < strands; ++s)
-    check(out.strand_offsets[s + 1] >= out.strand_offsets[s] + 1);
+  for (int s = 0; s < strands; ++s) check(out.strand_offsets[s + 1] >= out.strand_offsets[s] + 1);
   check(out.thickness.empty() || out.thickness.size() == static_cast<size_t>(points));
   check(out.transparency.empty() || out.transparency.size() == static_cast<size_t>(points));
   check(out.colors.empty() || out.colors.size() == 3 * static_cast<size_t>(points));

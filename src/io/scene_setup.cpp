@@ -5,8 +5,7 @@
 namespace wet_curly_hair {
 namespace io {
 
-bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why,
-               HairImportReport* report) {
+bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why, HairImportReport* report) {
   if (!scene.validate(why)) return false;
   if (scene.groom_file.file.empty()) {
     *groom = generateGroom(scene.groom, scene.head.ellipsoid);

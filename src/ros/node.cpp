@@ -766,8 +766,7 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     res.message = "refused, nothing changed: the hair model cannot be rebuilt: " + why;
     return true;
   }
-  if (rebuild && !report.skipped.empty())
-    ROS_WARN("groom_file.file: %s", report.warning().c_str());
+  if (rebuild && !report.skipped.empty()) ROS_WARN("groom_file.file: %s", report.warning().c_str());
   const io::ObstacleMapConfig& old_map = scene_.obstacle_map;  // params_mutex_ keeps it
   const io::ObstacleMapConfig& new_map = copy.obstacle_map;
   const bool map_changed = old_map.file != new_map.file || old_map.offset_m != new_map.offset_m ||

@@ -693,25 +693,25 @@ HairFileData mixedFile() {
   HairFileData d;
   d.strand_offsets = {0};
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  addStrand(&d, line(Vec3(0, 0, 11), 10.0, 5));                // 0: 10 cm, 5 points.
-  addStrand(&d, line(Vec3(1, 0, 11), 10.0, 2));                // 1: 2 points.
-  std::vector<Vec3> curl;                                       // 2: a helix, 20 points.
+  addStrand(&d, line(Vec3(0, 0, 11), 10.0, 5));  // 0: 10 cm, 5 points.
+  addStrand(&d, line(Vec3(1, 0, 11), 10.0, 2));  // 1: 2 points.
+  std::vector<Vec3> curl;                        // 2: a helix, 20 points.
   for (int i = 0; i < 20; ++i) {
     const double t = 0.6 * i;
     curl.emplace_back(2 + std::cos(t), std::sin(t), 11 - 0.5 * t);
   }
   addStrand(&d, curl);
-  addStrand(&d, std::vector<Vec3>(4, Vec3(3, 0, 11)));          // 3: zero length.
-  addStrand(&d, line(Vec3(4, 0, 11), 0.01, 4));                 // 4: 0.1 mm: kept.
+  addStrand(&d, std::vector<Vec3>(4, Vec3(3, 0, 11)));  // 3: zero length.
+  addStrand(&d, line(Vec3(4, 0, 11), 0.01, 4));         // 4: 0.1 mm: kept.
   // 5: repeated consecutive points (root, middle and tip): 4 distinct ones are kept.
   addStrand(&d, {Vec3(5, 0, 11), Vec3(5, 0, 11), Vec3(5, 0, 9), Vec3(5, 0, 9), Vec3(5, 1, 8),
                  Vec3(5, 2, 8), Vec3(5, 2, 8)});
   // 6: repeats that leave 2 distinct points.
   addStrand(&d, {Vec3(6, 0, 11), Vec3(6, 0, 11), Vec3(6, 0, 11), Vec3(6, 0, 8), Vec3(6, 0, 8)});
   addStrand(&d, {Vec3(7, 0, 11), Vec3(7, 0, 10), Vec3(7, nan, 9), Vec3(7, 0, 8)});  // 7: NaN.
-  addStrand(&d, line(Vec3(0, 0, 0), 5e-5, 3));                  // 8: 0.5 um: near zero.
-  addStrand(&d, {Vec3(9, 0, 11)});                              // 9: 1 point.
-  addStrand(&d, line(Vec3(0, 0, 0), 2e-4, 3));                  // 10: 2 um: kept.
+  addStrand(&d, line(Vec3(0, 0, 0), 5e-5, 3));  // 8: 0.5 um: near zero.
+  addStrand(&d, {Vec3(9, 0, 11)});              // 9: 1 point.
+  addStrand(&d, line(Vec3(0, 0, 0), 2e-4, 3));  // 10: 2 um: kept.
   return d;
 }
 
@@ -820,8 +820,8 @@ TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
   // An L of 0.2 + 0.053 = 0.253 m: round(25.3) = 25 edges -> 26 points; 0.257 m: 26 -> 27.
   addStrand(&d, {Vec3(0.1, 0, 0.2), Vec3(0.1, 0, 0.0), Vec3(0.1, 0.053, 0.0)});
   addStrand(&d, {Vec3(0.15, 0, 0.2), Vec3(0.15, 0, 0.0), Vec3(0.15, 0.057, 0.0)});
-  addStrand(&d, line(Vec3(0.2, 0, 0.2), 0.016, 3));  // round(1.6) = 2 edges -> 3 points.
-  addStrand(&d, line(Vec3(0.3, 0, 0.2), 0.004, 3));  // round(0.4) = 0 edges -> at least 3 points.
+  addStrand(&d, line(Vec3(0.2, 0, 0.2), 0.016, 3));   // round(1.6) = 2 edges -> 3 points.
+  addStrand(&d, line(Vec3(0.3, 0, 0.2), 0.004, 3));   // round(0.4) = 0 edges -> at least 3 points.
   addStrand(&d, line(Vec3(0.4, 0, 0.2), 1000.0, 3));  // 100001 points: more than a strand gets.
   HairImportOptions opts;
   opts.resample_edge_m = 0.01;

@@ -161,12 +161,12 @@ TEST(Scene, MixedGroomFileBuildsWithTheDefaultsAndReportsWhatItSkipped) {
   HairFileData d;
   d.strand_offsets = {0};
   const Vec3 top(0, 0, 0.111);
-  addLine(&d, top, Vec3(1, 0, 0), 0.05, 8);            // 0: 5 cm, 8 points.
-  addLine(&d, top, Vec3(0, 1, 0), 0.30, 40);           // 1: 30 cm, 40 points.
-  addLine(&d, top, Vec3(-1, 0, 0), 0.12, 16);          // 2: 12 cm, 16 points.
-  addLine(&d, top, Vec3(0, -1, 0), 0.20, 5);           // 3: 20 cm, 5 points.
-  addLine(&d, top, Vec3(1, 1, 0), 0.10, 2);            // 4: 2 points: skipped.
-  addLine(&d, top, Vec3(1, -1, 0), 0.0, 6);            // 5: zero length: skipped.
+  addLine(&d, top, Vec3(1, 0, 0), 0.05, 8);    // 0: 5 cm, 8 points.
+  addLine(&d, top, Vec3(0, 1, 0), 0.30, 40);   // 1: 30 cm, 40 points.
+  addLine(&d, top, Vec3(-1, 0, 0), 0.12, 16);  // 2: 12 cm, 16 points.
+  addLine(&d, top, Vec3(0, -1, 0), 0.20, 5);   // 3: 20 cm, 5 points.
+  addLine(&d, top, Vec3(1, 1, 0), 0.10, 2);    // 4: 2 points: skipped.
+  addLine(&d, top, Vec3(1, -1, 0), 0.0, 6);    // 5: zero length: skipped.
   const std::string path = ::testing::TempDir() + "wch_test_scene_mixed.hair";
   std::string why;
   ASSERT_TRUE(writeHairFile(path, d, &why)) << why;

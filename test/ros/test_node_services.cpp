@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include "ros_test_helpers.h"
 #include "wet_curly_hair/GetParameters.h"
@@ -222,9 +224,10 @@ TEST_F(NodeServices, AGroomFileWithBadStrandsLoadsAndTheStatusCountsTheSkipped) 
       line.emplace_back(0.02 * i * std::cos(a), 0.02 * i * std::sin(a), 0.111);
     add(line);
   }
-  add({{0, 0, 0.111}, {0, 0, 0.2}});                               // 2 points
+  add({{0, 0, 0.111}, {0, 0, 0.2}});                                       // 2 points
   add({{0, 0, 0.111}, {0.01, 0, 0.111}, {kNaN, 0, 0.1}, {0.03, 0, 0.1}});  // NaN
-  const std::string path = "/tmp/wch_test_node_services_groom.hair";
+  const std::string path =
+      "/tmp/wch_test_node_services_groom_" + std::to_string(getpid()) + ".hair";
   std::string why;
   ASSERT_TRUE(wet_curly_hair::io::writeHairFile(path, d, &why)) << why;
   Latest<wet_curly_hair::Status> status(nh_, "/wet_curly_hair/status");
