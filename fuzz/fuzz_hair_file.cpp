@@ -76,7 +76,7 @@ void checkImport(const HairFileData& file, int resample, double resample_edge_m)
       const double step = 0.01 * (b - a).norm() / resample_edge_m;
       if (std::isfinite(step)) particles += step;  // a non-finite strand is skipped unsampled
     }
-    if (!(particles < 2e5)) return;
+    if (!(particles < 2e4)) return;
   }
   HairImportOptions opts;
   opts.scale = 0.01;
