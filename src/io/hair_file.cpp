@@ -68,17 +68,6 @@ bool readFloatArray(const uint8_t* data, size_t size, const char* name, uint64_t
   return true;
 }
 
-// Strand index owning point `point` (offsets sorted, first 0, last > point).
-size_t strandOfPoint(const std::vector<uint32_t>& offsets, uint64_t point) {
-  const auto it = std::upper_bound(offsets.begin(), offsets.end(), point);
-  return static_cast<size_t>(it - offsets.begin()) - 1;
-}
-
-std::string axisLabel(int k) {
-  static const char* kNames[3] = {"x", "y", "z"};
-  return kNames[k];
-}
-
 }  // namespace
 
 int HairFileData::strandCount() const {
@@ -126,12 +115,11 @@ bool validateHairData(const HairFileData& data, std::string* error) {
     return false;
   }
   for (size_t s = 0; s + 1 < off.size(); ++s) {
-    if (off[s + 1] < off[s] || off[s + 1] - off[s] < 2) {
+    if (off[s + 1] <= off[s]) {
       m << "strand " << s << " has "
-        << (off[s + 1] < off[s] ? std::string("a negative number of")
-                                : std::to_string(off[s + 1] - off[s]))
+        << (off[s + 1] < off[s] ? std::string("a negative number of") : std::string("0"))
         << " points (strand_offsets[" << s << "] = " << off[s] << ", strand_offsets[" << s + 1
-        << "] = " << off[s + 1] << "): every strand needs at least 2 points";
+        << "] = " << off[s + 1] << "): every strand needs at least 1 point";
       setError(error, m.str());
       return false;
     }
@@ -168,14 +156,6 @@ bool validateHairData(const HairFileData& data, std::string* error) {
     m << "colors has " << data.colors.size() << " values, expected 0 or " << 3 * n;
     setError(error, m.str());
     return false;
-  }
-  for (uint64_t i = 0; i < 3 * n; ++i) {
-    if (!std::isfinite(data.points[i])) {
-      m << "point " << i / 3 << " (strand " << strandOfPoint(off, i / 3) << ") has a non-finite "
-        << axisLabel(static_cast<int>(i % 3)) << " coordinate (" << data.points[i] << ")";
-      setError(error, m.str());
-      return false;
-    }
   }
   return true;
 }
@@ -254,13 +234,8 @@ bool parseHair(const uint8_t* data, size_t size, HairFileData* out, std::string*
     r.strand_offsets.reserve(static_cast<size_t>(strands + 1));
     uint64_t total = 0;
     for (uint64_t s = 0; s < strands; ++s) {
+      // 0 segments is a strand of one point: kept, importHairAsGroom skips and names it.
       const uint64_t seg = loadU16(data + offset + 2 * s);
-      if (seg == 0) {
-        m << "segments array: strand " << s << " (offset " << offset + 2 * s
-          << ") has 0 segments = 1 point: every strand needs at least 2 points";
-        setError(error, m.str());
-        return false;
-      }
       total += seg + 1;
       if (total > points) {
         m << "segments array: strand " << s << " (" << seg
@@ -279,12 +254,8 @@ bool parseHair(const uint8_t* data, size_t size, HairFileData* out, std::string*
     }
     offset += need;
   } else {
-    if (r.default_segments == 0) {
-      setError(error,
-               "header: default segment count (offset 16) is 0 and there is no segments array: "
-               "strand 0 would have 1 point, every strand needs at least 2 points");
-      return false;
-    }
+    // A default segment count of 0 makes every strand a single point: kept, like one-point
+    // strands of a segments array (importHairAsGroom skips them).
     const uint64_t per = uint64_t{r.default_segments} + 1;  // <= 2^32
     const uint64_t total = strands * per;                   // < 2^64
     if (total != points) {
@@ -294,23 +265,22 @@ bool parseHair(const uint8_t* data, size_t size, HairFileData* out, std::string*
       setError(error, m.str());
       return false;
     }
+    // The offsets take 4 bytes a strand, up to 4 bytes a point when strands have one point: check
+    // that the 12 bytes a point of the points array exist before allocating them.
+    if (12 * points > size - offset) {
+      m << "points array: needs " << 12 * points << " bytes at offset " << offset
+        << ", file has only " << size << " bytes";
+      setError(error, m.str());
+      return false;
+    }
     r.strand_offsets.reserve(static_cast<size_t>(strands + 1));
     for (uint64_t s = 1; s <= strands; ++s) {
       r.strand_offsets.push_back(static_cast<uint32_t>(s * per));
     }
   }
 
+  // Non-finite coordinates are kept: importHairAsGroom skips and names their strands.
   if (!readFloatArray(data, size, "points", 3 * points, &offset, &r.points, error)) return false;
-  for (uint64_t i = 0; i < 3 * points; ++i) {
-    if (!std::isfinite(r.points[i])) {
-      m << "points array: point " << i / 3 << " (strand " << strandOfPoint(r.strand_offsets, i / 3)
-        << ", offset " << kHairHeaderBytes + (r.write_segments_array ? 2 * strands : 0) + 4 * i
-        << ") has a non-finite " << axisLabel(static_cast<int>(i % 3)) << " coordinate ("
-        << r.points[i] << ")";
-      setError(error, m.str());
-      return false;
-    }
-  }
   if ((flags & kHairHasThickness) != 0 &&
       !readFloatArray(data, size, "thickness", points, &offset, &r.thickness, error)) {
     return false;
@@ -616,36 +586,132 @@ bool resampleEqualChord(const Vec3List& in, int count, Vec3List* out, std::strin
 // ------------------------------------------------------------------------------ import / export
 
 namespace {
-// Shortest edge an imported groom may have, m (Groom::validate refuses shorter ones).
-constexpr double kMinImportEdgeM = 1e-9;
+
+std::string metres(double v) {
+  std::ostringstream m;
+  m << v << " m";
+  return m.str();
+}
+
+// Brings strand `s` of `file` into the head frame and checks that it can be simulated. Returns
+// false with `*reason` (why the strand is skipped) or true with the strand's points in `*out`
+// (repeats dropped, resampled when asked) and the number of dropped repeats in `*repeats`.
+bool importStrand(const HairFileData& file, int s, const HairImportOptions& opts, const Mat3& R,
+                  Vec3List* out, int* repeats, std::string* reason) {
+  const uint32_t b = file.strand_offsets[s];
+  const uint32_t e = file.strand_offsets[s + 1];
+  const int n = static_cast<int>(e - b);
+  if (n < kHairMinStrandPoints) {
+    *reason = std::to_string(n) + (n == 1 ? " point" : " points");
+    return false;
+  }
+  Vec3List& strand = *out;
+  strand.clear();
+  double length = 0.0;
+  *repeats = 0;
+  for (uint32_t i = b; i < e; ++i) {
+    const Vec3 pf(file.points[3 * i], file.points[3 * i + 1], file.points[3 * i + 2]);
+    const Vec3 p = opts.scale * (R * pf) + opts.offset_m;
+    if (!pf.allFinite() || !p.allFinite()) {
+      *reason = "non-finite point " + std::to_string(i - b) +
+                (pf.allFinite() ? std::string(" after scaling") : std::string(" in the file"));
+      return false;
+    }
+    // A point within kHairRepeatPointM of the previous kept one repeats it: dropping it keeps the
+    // strand's shape and gives no zero-length edge.
+    if (!strand.empty() && !((p - strand.back()).norm() >= kHairRepeatPointM)) {
+      ++*repeats;
+      continue;
+    }
+    if (!strand.empty()) length += (p - strand.back()).norm();
+    strand.push_back(p);
+  }
+  if (!(length >= kHairMinStrandLengthM)) {
+    *reason = "length " + metres(length) + ", below " + metres(kHairMinStrandLengthM);
+    return false;
+  }
+  if (static_cast<int>(strand.size()) < kHairMinStrandPoints) {
+    *reason = std::to_string(strand.size()) + " distinct points once " + std::to_string(*repeats) +
+              " repeated ones are dropped";
+    return false;
+  }
+  int count = opts.resample_particles;
+  if (opts.resample_edge_m > 0.0) {
+    const double edges = std::round(length / opts.resample_edge_m);
+    if (!(edges + 1.0 <= kHairMaxResampledPoints)) {
+      *reason = "length " + metres(length) + " needs more than " +
+                std::to_string(kHairMaxResampledPoints) + " points at resample_edge_m " +
+                metres(opts.resample_edge_m);
+      return false;
+    }
+    count = static_cast<int>(std::max<double>(kHairMinStrandPoints, edges + 1.0));
+  }
+  if (count > 0) {
+    Vec3List resampled;
+    std::string why;
+    if (!resampleEqualChord(strand, count, &resampled, &why)) {
+      *reason = "resampling to " + std::to_string(count) + " points: " + why;
+      return false;
+    }
+    for (size_t i = 0; i + 1 < resampled.size(); ++i) {
+      if (!((resampled[i + 1] - resampled[i]).norm() >= kHairRepeatPointM)) {
+        *reason = "resampled to " + std::to_string(count) + " points, edge " + std::to_string(i) +
+                  " is shorter than " + metres(kHairRepeatPointM);
+        return false;
+      }
+    }
+    strand.swap(resampled);
+  }
+  return true;
+}
+
+bool checkImportOptions(const HairImportOptions& opts, std::string* error) {
+  std::ostringstream m;
+  if (!(opts.scale > 0.0) || !std::isfinite(opts.scale)) {
+    m << "import option scale is " << opts.scale << ": must be finite and > 0 (metres per unit)";
+  } else if (!opts.offset_m.allFinite()) {
+    m << "import option offset_m is not finite";
+  } else if (!opts.head_center_m.allFinite()) {
+    m << "import option head_center_m is not finite";
+  } else if (opts.resample_particles < 0 || opts.resample_particles == 1) {
+    m << "import option resample_particles is " << opts.resample_particles
+      << ": must be 0 (keep the file's points) or >= 2";
+  } else if (!(opts.resample_edge_m >= 0.0) || !std::isfinite(opts.resample_edge_m)) {
+    m << "import option resample_edge_m is " << opts.resample_edge_m
+      << ": must be 0 (off) or a finite length > 0, m";
+  } else if (opts.resample_edge_m > 0.0 && opts.resample_particles > 0) {
+    m << "import options resample_particles (" << opts.resample_particles
+      << ") and resample_edge_m (" << opts.resample_edge_m
+      << " m) are both set: choose one (the other 0)";
+  } else {
+    return true;
+  }
+  setError(error, m.str());
+  return false;
+}
+
 }  // namespace
 
+std::string HairImportReport::warning() const {
+  if (skipped.empty()) return "";
+  std::ostringstream m;
+  m << "skipped " << skipped.size() << " of " << strands_in_file
+    << " strands of the file (not simulated): ";
+  const size_t named = std::min<size_t>(skipped.size(), kHairMaxNamedSkips);
+  for (size_t k = 0; k < named; ++k) {
+    m << (k > 0 ? ", " : "") << "strand " << skipped[k].index << " (" << skipped[k].reason << ")";
+  }
+  if (skipped.size() > named) m << ", and " << skipped.size() - named << " more";
+  return m.str();
+}
+
 bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, Groom* groom,
-                       std::string* error) {
+                       std::string* error, HairImportReport* report) {
   if (groom == nullptr) {
     setError(error, "importHairAsGroom: output is null");
     return false;
   }
-  if (!(opts.scale > 0.0) || !std::isfinite(opts.scale)) {
-    std::ostringstream m;
-    m << "import option scale is " << opts.scale << ": must be finite and > 0 (metres per unit)";
-    setError(error, m.str());
-    return false;
-  }
-  if (!opts.offset_m.allFinite()) {
-    setError(error, "import option offset_m is not finite");
-    return false;
-  }
-  if (!opts.head_center_m.allFinite()) {
-    setError(error, "import option head_center_m is not finite");
-    return false;
-  }
-  if (opts.resample_particles < 0 || opts.resample_particles == 1) {
-    setError(error, "import option resample_particles is " +
-                        std::to_string(opts.resample_particles) +
-                        ": must be 0 (keep the file's points) or >= 2");
-    return false;
-  }
+  if (!checkImportOptions(opts, error)) return false;
   std::string why;
   if (!validateHairData(file, &why)) {
     setError(error, "hair data: " + why);
@@ -654,56 +720,36 @@ bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, 
   const Mat3 R = upAxisRotation(opts.up);
   Groom g;
   g.strand_offsets.assign(1, 0u);
-  const int strands = file.strandCount();
+  HairImportReport r;
+  r.strands_in_file = file.strandCount();
   Vec3List strand;
-  for (int s = 0; s < strands; ++s) {
-    const uint32_t b = file.strand_offsets[s];
-    const uint32_t e = file.strand_offsets[s + 1];
-    strand.clear();
-    for (uint32_t i = b; i < e; ++i) {
-      const Vec3 pf(file.points[3 * i], file.points[3 * i + 1], file.points[3 * i + 2]);
-      const Vec3 p = opts.scale * (R * pf) + opts.offset_m;
-      if (!p.allFinite()) {
-        setError(error, "strand " + std::to_string(s) + " point " + std::to_string(i - b) +
-                            " is not finite after scaling");
-        return false;
-      }
-      strand.push_back(p);
+  for (int s = 0; s < r.strands_in_file; ++s) {
+    int repeats = 0;
+    std::string reason;
+    if (!importStrand(file, s, opts, R, &strand, &repeats, &reason)) {
+      r.skipped.push_back({s, reason});
+      continue;
     }
-    if (opts.resample_particles > 0) {
-      Vec3List resampled;
-      if (!resampleEqualChord(strand, opts.resample_particles, &resampled, &why)) {
-        setError(error, "strand " + std::to_string(s) + ": " + why);
-        return false;
-      }
-      strand.swap(resampled);
-    } else {
-      for (size_t i = 0; i + 1 < strand.size(); ++i) {
-        if (!((strand[i + 1] - strand[i]).norm() >= kMinImportEdgeM)) {
-          setError(error, "strand " + std::to_string(s) + " edge " + std::to_string(i) +
-                              " has length 0 (points " + std::to_string(i) + " and " +
-                              std::to_string(i + 1) +
-                              " are closer than 1e-9 m); resample to import it");
-          return false;
-        }
-      }
-    }
-    if (opts.resample_particles > 0 && !((strand[1] - strand[0]).norm() >= kMinImportEdgeM)) {
-      setError(error, "strand " + std::to_string(s) + ": resampled edges are shorter than 1e-9 m");
-      return false;
-    }
+    r.repeated_points_dropped += repeats;
     Vec3 normal = strand.front() - opts.head_center_m;
     if (!(normal.norm() > 0.0)) normal = strand[1] - strand[0];
-    normal.normalize();
+    normal.stableNormalize();  // no overflow of the squared norm for far-away points
     g.root_normals.push_back(normal);
     g.points.insert(g.points.end(), strand.begin(), strand.end());
     g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
+  }
+  r.strands_imported = g.strandCount();
+  if (r.strands_imported == 0) {
+    setError(error, "none of the " + std::to_string(r.strands_in_file) +
+                        " strands can be simulated: " + r.warning());
+    return false;
   }
   if (!g.validate(&why)) {  // Safety net: the checks above should already guarantee this.
     setError(error, "imported groom is invalid: " + why);
     return false;
   }
   *groom = std::move(g);
+  if (report != nullptr) *report = std::move(r);
   return true;
 }
 
@@ -726,6 +772,14 @@ bool groomPositionsToHairChecked(const std::vector<uint32_t>& strand_offsets,
   for (size_t s = 0; s + 1 < strand_offsets.size(); ++s) {
     if (strand_offsets[s + 1] < strand_offsets[s]) {
       m << "strand_offsets decrease at strand " << s;
+      setError(error, m.str());
+      return false;
+    }
+  }
+  for (size_t i = 0; i < positions_m.size(); ++i) {
+    // The format holds non-finite values, but an exported frame with them is a broken state.
+    if (!positions_m[i].allFinite()) {
+      m << "position " << i << " is not finite";
       setError(error, m.str());
       return false;
     }

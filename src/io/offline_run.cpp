@@ -24,6 +24,7 @@ namespace io {
 std::string RunSummary::toJson() const {
   JsonObject o;
   o.add("strands", strands)
+      .add("strands_skipped", strands_skipped)
       .add("particles", particles)
       .add("steps", static_cast<unsigned long long>(steps))
       .add("substep_s", substep_s)
@@ -137,7 +138,11 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
               std::string* why) {
   const long rss_start_kb = procStatusKb("VmRSS:");
   HairModel model;
-  if (!buildSceneModel(scene, &model, why)) return false;
+  HairImportReport import_report;
+  if (!buildSceneModel(scene, &model, why, &import_report)) return false;
+  if (!import_report.skipped.empty())
+    std::fprintf(stderr, "groom_file.file: %s: %s\n", scene.groom_file.file.c_str(),
+                 import_report.warning().c_str());
   if (options.series_stride < 1) {
     if (why) *why = "--series-stride: must be at least 1";
     return false;
@@ -236,6 +241,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     s.sdf_build_s = stats.total_s;
   }
   s.strands = model.strandCount();
+  s.strands_skipped = static_cast<int>(import_report.skipped.size());
   s.particles = model.particleCount();
   s.substep_s = frame / substepCount(scene.solver, frame);
   // Output positions in the head frame for the jitter (three frames kept, allocated once).

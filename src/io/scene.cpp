@@ -49,6 +49,22 @@ bool SceneConfig::validate(std::string* why) const {
       if (why) *why = "groom_file.resample_particles: must be 0 (keep) or in [2, 4096]";
       return false;
     }
+    // Below 0.1 mm a 1 m strand would get over 10^4 particles: a typo, not a groom.
+    const double edge = groom_file.resample_edge_m;
+    if (!std::isfinite(edge) || (edge != 0.0 && (edge < 1e-4 || edge > 1.0))) {
+      if (why) {
+        *why = "groom_file.resample_edge_m: " + std::to_string(edge) +
+               " must be 0 (off) or in [1e-4, 1] m";
+      }
+      return false;
+    }
+    if (edge != 0.0 && groom_file.resample_particles != 0) {
+      if (why) {
+        *why = "groom_file.resample_edge_m: set together with groom_file.resample_particles (" +
+               std::to_string(groom_file.resample_particles) + "): choose one, the other 0";
+      }
+      return false;
+    }
   }
   return true;
 }
@@ -96,6 +112,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   str("groom_file.up_axis", &gf.up_axis, "the file's up axis: x, y, z, -x, -y, -z", true);
   addVec(&t, "groom_file.offset_m", &gf.offset_m, "offset after scaling, head frame, m", true);
   i("groom_file.resample_particles", &gf.resample_particles, "0 keeps the file's points", true);
+  d("groom_file.resample_edge_m", &gf.resample_edge_m,
+    "edge length to resample every strand to, m (0: off; particles follow each strand's length)",
+    true);
   addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
   addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);
   SolverConfig& c = s->solver;

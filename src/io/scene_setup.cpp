@@ -5,11 +5,16 @@
 namespace wet_curly_hair {
 namespace io {
 
-bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why) {
+bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why, HairImportReport* report) {
   if (!scene.validate(why)) return false;
   if (scene.groom_file.file.empty()) {
     *groom = generateGroom(scene.groom, scene.head.ellipsoid);
-    return groom->validate(why);
+    if (!groom->validate(why)) return false;
+    if (report != nullptr) {
+      *report = HairImportReport();
+      report->strands_in_file = report->strands_imported = groom->strandCount();
+    }
+    return true;
   }
   HairFileData data;
   std::string inner;
@@ -25,21 +30,29 @@ bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why) {
   }
   options.offset_m = scene.groom_file.offset_m;
   options.resample_particles = scene.groom_file.resample_particles;
+  options.resample_edge_m = scene.groom_file.resample_edge_m;
   options.head_center_m = scene.head.ellipsoid.center_m;
   Groom imported;
-  if (!importHairAsGroom(data, options, &imported, &inner)) {
+  HairImportReport imported_report;
+  if (!importHairAsGroom(data, options, &imported, &inner, &imported_report)) {
     if (why) *why = "groom_file.file: " + scene.groom_file.file + ": " + inner;
     return false;
   }
   if (!imported.validate(why)) return false;
   *groom = std::move(imported);
+  if (report != nullptr) *report = std::move(imported_report);
   return true;
 }
 
-bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* why) {
+bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* why,
+                     HairImportReport* report) {
   Groom groom;
-  if (!makeGroom(scene, &groom, why)) return false;
-  return buildModel(groom, scene.groom.particle_mass_kg, scene.head, scene.solver, model, why);
+  HairImportReport r;
+  if (!makeGroom(scene, &groom, why, &r)) return false;
+  if (!buildModel(groom, scene.groom.particle_mass_kg, scene.head, scene.solver, model, why))
+    return false;
+  if (report != nullptr) *report = std::move(r);
+  return true;
 }
 
 }  // namespace io

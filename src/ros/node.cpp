@@ -82,8 +82,11 @@ WetCurlyHairNode::WetCurlyHairNode(const ros::NodeHandle& nh, const ros::NodeHan
 
 void WetCurlyHairNode::init() {
   std::string why;
-  if (!io::buildSceneModel(scene_, &model_, &why))
+  io::HairImportReport report;
+  if (!io::buildSceneModel(scene_, &model_, &why, &report))
     throw std::runtime_error("cannot build the hair model of the " + scene_source_ + ": " + why);
+  strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
+  if (strands_skipped_ > 0) ROS_WARN("groom_file.file: %s", report.warning().c_str());
   frame_ns_ = std::llround(1e9 / config_.publish_rate);
   frame_s_ = frame_ns_ * 1e-9;
   obstacles_.analytic = scene_.obstacles;
@@ -451,6 +454,7 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   }
   s->strands = model_.strandCount();
   s->particles = model_.particleCount();
+  s->strands_skipped = strands_skipped_;
   s->saturation_changes_pending = static_cast<uint32_t>(pending_changes_.size());
 }
 
@@ -757,10 +761,12 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
   rebuild = rebuild || numeric_rebuild;
   // 2. The expensive parts, with the simulation running: a new model, a new obstacle field.
   HairModel model;
-  if (rebuild && !io::buildSceneModel(copy, &model, &why)) {
+  io::HairImportReport report;
+  if (rebuild && !io::buildSceneModel(copy, &model, &why, &report)) {
     res.message = "refused, nothing changed: the hair model cannot be rebuilt: " + why;
     return true;
   }
+  if (rebuild && !report.skipped.empty()) ROS_WARN("groom_file.file: %s", report.warning().c_str());
   const io::ObstacleMapConfig& old_map = scene_.obstacle_map;  // params_mutex_ keeps it
   const io::ObstacleMapConfig& new_map = copy.obstacle_map;
   const bool map_changed = old_map.file != new_map.file || old_map.offset_m != new_map.offset_m ||
@@ -789,6 +795,7 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     obstacles_.analytic = scene_.obstacles;
     if (rebuild) {
       model_ = std::move(model);
+      strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
       resetHairLocked(head_pose_, "parameters changed the model");
     }
   }

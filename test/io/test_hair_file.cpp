@@ -325,14 +325,19 @@ TEST(HairFileRefusal, ZeroStrands) {
   expectRefused(bytes, {"strand count", "offset 4", "0"});
 }
 
-TEST(HairFileRefusal, NonFiniteCoordinatesNameThePoint) {
+// Non-finite coordinates are data the format holds: the reader keeps them bit for bit (and the
+// writer writes them back), so that the import can skip and name the strand (HairImportSkips).
+TEST(HairFileRoundTrip, NonFiniteCoordinatesAreKept) {
   const std::vector<uint8_t> good = serialized(makeSmall(Parts()));
-  std::vector<uint8_t> nan = good;
-  putF32(&nan, 132 + 12 * 4 + 4, std::numeric_limits<float>::quiet_NaN());  // point 4, y.
-  expectRefused(nan, {"point 4", "strand 1", "y coordinate"});
-  std::vector<uint8_t> inf = good;
-  putF32(&inf, 132, -std::numeric_limits<float>::infinity());  // point 0, x.
-  expectRefused(inf, {"point 0", "strand 0", "x coordinate"});
+  std::vector<uint8_t> bytes = good;
+  putF32(&bytes, 132 + 12 * 4 + 4, std::numeric_limits<float>::quiet_NaN());  // point 4, y.
+  putF32(&bytes, 132, -std::numeric_limits<float>::infinity());               // point 0, x.
+  HairFileData out;
+  std::string error;
+  ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &out, &error)) << error;
+  EXPECT_TRUE(std::isnan(out.points[3 * 4 + 1]));
+  EXPECT_EQ(out.points[0], -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(serialized(out), bytes);
 }
 
 TEST(HairFileRefusal, AbsurdCountsBeforeAllocating) {
@@ -359,17 +364,28 @@ TEST(HairFileRefusal, AbsurdCountsBeforeAllocating) {
   expectRefused(bytes, {"points array: needs 3221225472 bytes at offset 128"});
 }
 
-TEST(HairFileRefusal, StrandWithFewerThanTwoPoints) {
-  std::vector<uint8_t> bytes = serialized(makeSmall(Parts()));
-  putU16(&bytes, 128, 0);  // strand 0: 1 point.
-  expectRefused(bytes, {"strand 0", "at least 2 points"});
+// A strand of one point (0 segments) is data too: kept by the reader, skipped by the import.
+TEST(HairFileRoundTrip, OnePointStrandsAreKept) {
+  HairFileData in = makeSmall(Parts());  // strands of 3 and 4 points.
+  in.strand_offsets = {0, 1, 3, 7};      // now 1, 2 and 4 points.
+  const std::vector<uint8_t> bytes = serialized(in);
+  HairFileData out;
+  std::string error;
+  ASSERT_TRUE(parseHair(bytes.data(), bytes.size(), &out, &error)) << error;
+  EXPECT_TRUE(identical(in, out));
 
+  // Without a segments array, a default segment count of 0 makes every strand one point.
   Parts parts;
   parts.segments = false;
-  bytes = serialized(makeSmall(parts));
-  putU32(&bytes, 16, 0);
-  putU32(&bytes, 8, 2);  // 2 strands x 1 point.
-  expectRefused(bytes, {"default segment count", "at least 2 points"});
+  std::vector<uint8_t> single = serialized(makeSmall(parts));  // 6 points.
+  putU32(&single, 16, 0);
+  putU32(&single, 4, 6);  // 6 strands x 1 point.
+  ASSERT_TRUE(parseHair(single.data(), single.size(), &out, &error)) << error;
+  EXPECT_EQ(out.strand_offsets, (std::vector<uint32_t>{0, 1, 2, 3, 4, 5, 6}));
+  // ... and the points array must exist before the offsets are allocated.
+  putU32(&single, 4, 1u << 28);
+  putU32(&single, 8, 1u << 28);
+  expectRefused(single, {"points array: needs 3221225472 bytes at offset 128"});
 }
 
 TEST(HairFileRefusal, RandomMutationsNeverCrash) {
@@ -417,8 +433,8 @@ TEST(HairFileRefusal, SerializeRefusesInconsistentData) {
   }
   {
     HairFileData d = makeSmall(Parts());
-    d.strand_offsets[1] = 1;
-    cases.push_back({"one-point strand", d, "strand 0 has 1 points"});
+    d.strand_offsets = {0, 3, 3, 7};
+    cases.push_back({"zero-point strand", d, "strand 1 has 0 points"});
   }
   {
     HairFileData d = makeSmall(Parts());
@@ -435,11 +451,6 @@ TEST(HairFileRefusal, SerializeRefusesInconsistentData) {
     d.write_segments_array = false;
     d.default_segments = 2;
     cases.push_back({"non-uniform strands without segments array", d, "strand 1 has 3 segments"});
-  }
-  {
-    HairFileData d = makeSmall(Parts());
-    d.points[3 * 5 + 2] = std::numeric_limits<float>::infinity();
-    cases.push_back({"non-finite", d, "point 5 (strand 1)"});
   }
   {
     HairFileData d = makeSmall(Parts());
@@ -624,15 +635,23 @@ TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
   o = HairImportOptions();
   o.offset_m.x() = std::nan("");
   cases.push_back({"offset", file, o, "offset_m"});
+  for (double edge : {-0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    o = HairImportOptions();
+    o.resample_edge_m = edge;
+    cases.push_back({"resample_edge_m " + std::to_string(edge), file, o, "resample_edge_m is"});
+  }
+  o = HairImportOptions();
+  o.resample_edge_m = 0.01;
+  o.resample_particles = 8;
+  cases.push_back({"both resamplings", file, o, "resample_particles (8) and resample_edge_m"});
   {
+    // Skipped strands never refuse a groom, but a file with no strand left is refused.
     HairFileData f = file;
-    for (int i = 3; i < 7; ++i) {
+    for (int i = 0; i < 7; ++i) {
       for (int k = 0; k < 3; ++k) f.points[3 * i + k] = 5.f;
     }
-    HairImportOptions r;
-    r.resample_particles = 8;
-    cases.push_back({"zero-length strand", f, r, "strand 1: polyline total length is 0"});
-    cases.push_back({"zero-length edge", f, HairImportOptions(), "strand 1 edge 0 has length 0"});
+    cases.push_back({"every strand zero length", f, HairImportOptions(),
+                     "none of the 2 strands can be simulated: skipped 2 of 2 strands"});
   }
   {
     HairFileData f = file;
@@ -651,13 +670,194 @@ TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
   }
 }
 
+// ------------------------------------------------------------------------------ skipped strands
+
+/// Appends a strand (file units) to `d`.
+void addStrand(HairFileData* d, const std::vector<Vec3>& pts) {
+  for (const Vec3& p : pts) {
+    for (int k = 0; k < 3; ++k) d->points.push_back(static_cast<float>(p[k]));
+  }
+  d->strand_offsets.push_back(static_cast<uint32_t>(d->points.size() / 3));
+}
+
+/// `n` points on a straight line from `root` along +x, `length` long (file units).
+std::vector<Vec3> line(const Vec3& root, double length, int n) {
+  std::vector<Vec3> p;
+  for (int i = 0; i < n; ++i) p.push_back(root + Vec3(length * i / (n - 1), 0, 0));
+  return p;
+}
+
+/// A file in centimetres (scale 0.01) with eleven strands: four that import and seven that
+/// cannot be simulated, one of each kind.
+HairFileData mixedFile() {
+  HairFileData d;
+  d.strand_offsets = {0};
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  addStrand(&d, line(Vec3(0, 0, 11), 10.0, 5));  // 0: 10 cm, 5 points.
+  addStrand(&d, line(Vec3(1, 0, 11), 10.0, 2));  // 1: 2 points.
+  std::vector<Vec3> curl;                        // 2: a helix, 20 points.
+  for (int i = 0; i < 20; ++i) {
+    const double t = 0.6 * i;
+    curl.emplace_back(2 + std::cos(t), std::sin(t), 11 - 0.5 * t);
+  }
+  addStrand(&d, curl);
+  addStrand(&d, std::vector<Vec3>(4, Vec3(3, 0, 11)));  // 3: zero length.
+  addStrand(&d, line(Vec3(4, 0, 11), 0.01, 4));         // 4: 0.1 mm: kept.
+  // 5: repeated consecutive points (root, middle and tip): 4 distinct ones are kept.
+  addStrand(&d, {Vec3(5, 0, 11), Vec3(5, 0, 11), Vec3(5, 0, 9), Vec3(5, 0, 9), Vec3(5, 1, 8),
+                 Vec3(5, 2, 8), Vec3(5, 2, 8)});
+  // 6: repeats that leave 2 distinct points.
+  addStrand(&d, {Vec3(6, 0, 11), Vec3(6, 0, 11), Vec3(6, 0, 11), Vec3(6, 0, 8), Vec3(6, 0, 8)});
+  addStrand(&d, {Vec3(7, 0, 11), Vec3(7, 0, 10), Vec3(7, nan, 9), Vec3(7, 0, 8)});  // 7: NaN.
+  addStrand(&d, line(Vec3(0, 0, 0), 5e-5, 3));  // 8: 0.5 um: near zero.
+  addStrand(&d, {Vec3(9, 0, 11)});              // 9: 1 point.
+  addStrand(&d, line(Vec3(0, 0, 0), 2e-4, 3));  // 10: 2 um: kept.
+  return d;
+}
+
+TEST(HairImportSkips, MixedFileLoadsWithCountNamesAndRemainingStrands) {
+  // Written to and read from a file, as a user's groom would be.
+  const std::string path = tempPath("wch_test_mixed.hair");
+  std::string error;
+  ASSERT_TRUE(writeHairFile(path, mixedFile(), &error)) << error;
+  HairFileData file;
+  ASSERT_TRUE(readHairFile(path, &file, &error)) << error;
+  std::remove(path.c_str());
+  ASSERT_EQ(file.strandCount(), 11);
+  HairImportOptions opts;
+  opts.scale = 0.01;
+  Groom g;
+  HairImportReport report;
+  ASSERT_TRUE(importHairAsGroom(file, opts, &g, &error, &report)) << error;
+
+  EXPECT_EQ(report.strands_in_file, 11);
+  EXPECT_EQ(report.strands_imported, 5);
+  EXPECT_EQ(report.repeated_points_dropped, 3);
+  ASSERT_EQ(report.skipped.size(), 6u);
+  const std::vector<int> skipped_index = {1, 3, 6, 7, 8, 9};
+  for (size_t k = 0; k < skipped_index.size(); ++k) {
+    EXPECT_EQ(report.skipped[k].index, skipped_index[k]) << k;
+  }
+  EXPECT_EQ(report.skipped[0].reason, "2 points");
+  EXPECT_EQ(report.skipped[1].reason, "length 0 m, below 1e-06 m");
+  EXPECT_EQ(report.skipped[2].reason, "2 distinct points once 3 repeated ones are dropped");
+  EXPECT_EQ(report.skipped[3].reason, "non-finite point 2 in the file");
+  EXPECT_EQ(report.skipped[4].reason.rfind("length 5", 0), 0u) << report.skipped[4].reason;
+  EXPECT_NE(report.skipped[4].reason.find("e-07 m, below 1e-06 m"), std::string::npos)
+      << report.skipped[4].reason;
+  EXPECT_EQ(report.skipped[5].reason, "1 point");
+  // One warning: five strands named with their reason, then the count of the rest.
+  const std::string w = report.warning();
+  EXPECT_EQ(w.rfind("skipped 6 of 11 strands of the file (not simulated): strand 1 (2 points), "
+                    "strand 3 (length 0 m, below 1e-06 m), strand 6 (2 distinct points once 3 "
+                    "repeated ones are dropped), strand 7 (non-finite point 2 in the file), "
+                    "strand 8 (length 5",
+                    0),
+            0u)
+      << w;
+  EXPECT_EQ(w.substr(w.size() - 12), ", and 1 more") << w;
+  EXPECT_EQ(w.find("strand 9"), std::string::npos) << w;
+
+  // The remaining strands, in file order, with their own point counts and lengths.
+  ASSERT_EQ(g.strandCount(), 5);
+  const std::vector<int> sizes = {5, 20, 4, 4, 3};
+  const std::vector<int> file_index = {0, 2, 4, 5, 10};
+  for (int s = 0; s < 5; ++s) {
+    SCOPED_TRACE("groom strand " + std::to_string(s));
+    EXPECT_EQ(g.strandSize(s), sizes[s]);
+    const uint32_t b = file.strand_offsets[file_index[s]];
+    const Vec3 root(file.points[3 * b], file.points[3 * b + 1], file.points[3 * b + 2]);
+    EXPECT_TRUE(g.points[g.strand_offsets[s]].isApprox(0.01 * root, 1e-12));
+  }
+  double length4 = 0.0;
+  for (uint32_t i = g.strand_offsets[2]; i + 1 < g.strand_offsets[3]; ++i) {
+    length4 += (g.points[i + 1] - g.points[i]).norm();
+  }
+  // The 0.1 mm strand is hair: kept (to the float32 rounding of its 4 cm file coordinates).
+  EXPECT_NEAR(length4, 1e-4, 1e-8);
+  // Strand 5 keeps its distinct points in order: (5,0,11), (5,0,9), (5,1,8), (5,2,8) cm.
+  const Vec3List expect5 = {Vec3(0.05, 0, 0.11), Vec3(0.05, 0, 0.09), Vec3(0.05, 0.01, 0.08),
+                            Vec3(0.05, 0.02, 0.08)};
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_TRUE(g.points[g.strand_offsets[3] + i].isApprox(expect5[i], 1e-6)) << i;
+  }
+  std::string why;
+  EXPECT_TRUE(g.validate(&why)) << why;
+}
+
+TEST(HairImportSkips, NothingSkippedGivesNoWarning) {
+  HairFileData d;
+  d.strand_offsets = {0};
+  addStrand(&d, line(Vec3(0, 0, 0.1), 0.1, 4));
+  Groom g;
+  HairImportReport report;
+  report.skipped.push_back({7, "stale"});
+  std::string error;
+  ASSERT_TRUE(importHairAsGroom(d, HairImportOptions(), &g, &error, &report)) << error;
+  EXPECT_TRUE(report.skipped.empty());
+  EXPECT_EQ(report.warning(), "");
+  EXPECT_EQ(report.strands_imported, 1);
+}
+
+TEST(HairImportSkips, NonFiniteAfterScalingIsSkipped) {
+  HairFileData d;
+  d.strand_offsets = {0};
+  addStrand(&d, line(Vec3(0, 0, 1), 1e10, 3));  // finite, but past 1.8e308 once scaled by 1e300.
+  HairImportOptions opts;
+  opts.scale = 1e300;
+  Groom g;
+  std::string error;
+  EXPECT_FALSE(importHairAsGroom(d, opts, &g, &error));
+  EXPECT_EQ(error,
+            "none of the 1 strands can be simulated: skipped 1 of 1 strands of the file (not "
+            "simulated): strand 0 (non-finite point 1 after scaling)");
+}
+
+TEST(HairImportSkips, ResampleEdgeGivesPointsThatFollowEachStrandsLength) {
+  HairFileData d;
+  d.strand_offsets = {0};
+  addStrand(&d, line(Vec3(0, 0, 0.2), 0.1, 4));  // 0.1 m: 10 edges of 1 cm -> 11 points.
+  // An L of 0.2 + 0.053 = 0.253 m: round(25.3) = 25 edges -> 26 points; 0.257 m: 26 -> 27.
+  addStrand(&d, {Vec3(0.1, 0, 0.2), Vec3(0.1, 0, 0.0), Vec3(0.1, 0.053, 0.0)});
+  addStrand(&d, {Vec3(0.15, 0, 0.2), Vec3(0.15, 0, 0.0), Vec3(0.15, 0.057, 0.0)});
+  addStrand(&d, line(Vec3(0.2, 0, 0.2), 0.016, 3));   // round(1.6) = 2 edges -> 3 points.
+  addStrand(&d, line(Vec3(0.3, 0, 0.2), 0.004, 3));   // round(0.4) = 0 edges -> at least 3 points.
+  addStrand(&d, line(Vec3(0.4, 0, 0.2), 1000.0, 3));  // 100001 points: more than a strand gets.
+  HairImportOptions opts;
+  opts.resample_edge_m = 0.01;
+  Groom g;
+  std::string error;
+  HairImportReport report;
+  ASSERT_TRUE(importHairAsGroom(d, opts, &g, &error, &report)) << error;
+  ASSERT_EQ(report.skipped.size(), 1u);
+  EXPECT_EQ(report.skipped[0].index, 5);
+  EXPECT_EQ(report.skipped[0].reason,
+            "length 1000 m needs more than 65536 points at resample_edge_m 0.01 m");
+  ASSERT_EQ(g.strandCount(), 5);
+  const std::vector<int> expected = {11, 26, 27, 3, 3};
+  for (int s = 0; s < 5; ++s) {
+    SCOPED_TRACE("strand " + std::to_string(s));
+    EXPECT_EQ(g.strandSize(s), expected[s]);
+    const uint32_t b = d.strand_offsets[s], e = d.strand_offsets[s + 1];
+    EXPECT_TRUE(g.points[g.strand_offsets[s]].isApprox(
+        Vec3(d.points[3 * b], d.points[3 * b + 1], d.points[3 * b + 2]), 1e-12));
+    EXPECT_TRUE(g.points[g.strand_offsets[s + 1] - 1].isApprox(
+        Vec3(d.points[3 * e - 3], d.points[3 * e - 2], d.points[3 * e - 1]), 1e-12));
+    expectEqualEdges(edgeLengths(g.points, g.strand_offsets[s], g.strand_offsets[s + 1]), 1e-9);
+  }
+  // Straight strands: the chords are the arc length over the edge count.
+  EXPECT_NEAR((g.points[1] - g.points[0]).norm(), 0.01, 1e-8);
+  EXPECT_NEAR((g.points[g.strand_offsets[3] + 1] - g.points[g.strand_offsets[3]]).norm(), 0.008,
+              1e-8);
+}
+
 // ------------------------------------------------------------------------------ export
 
 TEST(HairExport, SaturationIsRecoverableAndColoured) {
-  const std::vector<uint32_t> offsets = {0, 3, 5};
-  Vec3List pos = {Vec3(0, 0, 1), Vec3(0, 0, 0.9), Vec3(0.01, 0, 0.8), Vec3(0.1, 0.2, 1),
-                  Vec3(0.1, 0.2, 0.95)};
-  const std::vector<double> sat = {0.0, 0.25, 1.0, 0.5, 0.125};
+  const std::vector<uint32_t> offsets = {0, 3, 6};
+  Vec3List pos = {Vec3(0, 0, 1),     Vec3(0, 0, 0.9),      Vec3(0.01, 0, 0.8),
+                  Vec3(0.1, 0.2, 1), Vec3(0.1, 0.2, 0.95), Vec3(0.1, 0.21, 0.9)};
+  const std::vector<double> sat = {0.0, 0.25, 1.0, 0.5, 0.125, 0.75};
   const HairFileData d = groomPositionsToHair(offsets, pos, &sat);
   std::vector<uint8_t> bytes;
   std::string error;
@@ -699,6 +899,11 @@ TEST(HairExport, BadInputGivesNoStrandsAndAMessage) {
   EXPECT_TRUE(identical(out, sentinel()));
   std::vector<uint8_t> bytes;
   EXPECT_FALSE(serializeHair(groomPositionsToHair({0, 3}, pos, nullptr), &bytes, &error));
+  // The format holds non-finite values, but a frame with them is a broken state: refused.
+  const Vec3List bad = {Vec3(0, 0, 1), Vec3(0, std::nan(""), 0.9)};
+  EXPECT_FALSE(groomPositionsToHairChecked({0, 2}, bad, nullptr, &out, &error));
+  EXPECT_NE(error.find("position 1 is not finite"), std::string::npos) << error;
+  EXPECT_TRUE(identical(out, sentinel()));
 }
 
 // ------------------------------------------------------------------------------ real file

@@ -1,9 +1,11 @@
 // Scene YAML, the parameter table and its all-or-nothing updates.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
+#include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/io/scene_setup.h"
 
@@ -123,4 +125,73 @@ TEST(Parameters, NamesAreUnique) {
   const std::vector<ParamRef> table = parameterTable(&scene);
   for (size_t i = 0; i < table.size(); ++i)
     for (size_t j = i + 1; j < table.size(); ++j) EXPECT_NE(table[i].name, table[j].name);
+}
+
+TEST(Scene, GroomFileResampleEdgeIsValidatedWithTheKeyNamed) {
+  const std::string file = "groom_file: {file: groom.hair, ";
+  for (const char* bad : {"-0.01", "5e-5", "2", ".nan", ".inf"}) {
+    SCOPED_TRACE(bad);
+    expectRefused(file + "resample_edge_m: " + bad + "}", "groom_file.resample_edge_m");
+  }
+  expectRefused(file + "resample_edge_m: 0.01, resample_particles: 16}",
+                "groom_file.resample_edge_m");
+  SceneConfig scene = builtinScene();
+  std::string why;
+  ASSERT_TRUE(parseSceneYaml(file + "resample_edge_m: 0.005}", &scene, &why)) << why;
+  EXPECT_DOUBLE_EQ(scene.groom_file.resample_edge_m, 0.005);
+}
+
+namespace {
+
+/// Appends a straight strand of `n` points and `length_m` from `root` along `dir` to a .hair file.
+void addLine(HairFileData* d, const Vec3& root, const Vec3& dir, double length_m, int n) {
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = root + dir.normalized() * (length_m * i / (n - 1));
+    for (int k = 0; k < 3; ++k) d->points.push_back(static_cast<float>(p[k]));
+  }
+  d->strand_offsets.push_back(static_cast<uint32_t>(d->points.size() / 3));
+}
+
+}  // namespace
+
+// A groom file as an asset pipeline writes it: strands of different lengths and point counts,
+// and a few that cannot be simulated. With the default parameters it builds, and the import
+// report says what was skipped.
+TEST(Scene, MixedGroomFileBuildsWithTheDefaultsAndReportsWhatItSkipped) {
+  HairFileData d;
+  d.strand_offsets = {0};
+  const Vec3 top(0, 0, 0.111);
+  addLine(&d, top, Vec3(1, 0, 0), 0.05, 8);    // 0: 5 cm, 8 points.
+  addLine(&d, top, Vec3(0, 1, 0), 0.30, 40);   // 1: 30 cm, 40 points.
+  addLine(&d, top, Vec3(-1, 0, 0), 0.12, 16);  // 2: 12 cm, 16 points.
+  addLine(&d, top, Vec3(0, -1, 0), 0.20, 5);   // 3: 20 cm, 5 points.
+  addLine(&d, top, Vec3(1, 1, 0), 0.10, 2);    // 4: 2 points: skipped.
+  addLine(&d, top, Vec3(1, -1, 0), 0.0, 6);    // 5: zero length: skipped.
+  const std::string path = ::testing::TempDir() + "wch_test_scene_mixed.hair";
+  std::string why;
+  ASSERT_TRUE(writeHairFile(path, d, &why)) << why;
+  SceneConfig scene;  // the defaults
+  scene.groom_file.file = path;
+  HairModel model;
+  HairImportReport report;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why, &report)) << why;
+  EXPECT_EQ(model.strandCount(), 4);
+  EXPECT_EQ(model.particleCount(), 8 + 40 + 16 + 5);
+  EXPECT_EQ(report.strands_in_file, 6);
+  ASSERT_EQ(report.skipped.size(), 2u);
+  EXPECT_EQ(report.skipped[0].index, 4);
+  EXPECT_EQ(report.skipped[1].index, 5);
+
+  // Resampled to 1 cm edges: particles follow each strand's length (6, 31, 13, 21).
+  scene.groom_file.resample_edge_m = 0.01;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why, &report)) << why;
+  EXPECT_EQ(model.particleCount(), 6 + 31 + 13 + 21);
+  EXPECT_EQ(report.skipped.size(), 2u);
+
+  // A generated groom skips nothing.
+  scene.groom_file.file.clear();
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why, &report)) << why;
+  EXPECT_TRUE(report.skipped.empty());
+  EXPECT_EQ(report.strands_imported, model.strandCount());
+  std::remove(path.c_str());
 }

@@ -3,15 +3,19 @@
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include "ros_test_helpers.h"
 #include "wet_curly_hair/GetParameters.h"
 #include "wet_curly_hair/SetParameters.h"
 #include "wet_curly_hair/SetSaturation.h"
+#include "wet_curly_hair/Status.h"
+#include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/scene.h"
 
 using wch_test::Latest;
@@ -202,6 +206,45 @@ TEST_F(NodeServices, GroomChangesRebuildTheModelAndResetTheHair) {
   EXPECT_EQ(wch_test::strandsProblem(m), "");
   ASSERT_TRUE(set({"groom.strands"}, {20}).success);
   EXPECT_EQ(nextStrands().strand_offsets.size(), 21u);
+}
+
+// A groom file with strands that cannot be simulated loads; the status counts what was skipped.
+TEST_F(NodeServices, AGroomFileWithBadStrandsLoadsAndTheStatusCountsTheSkipped) {
+  wet_curly_hair::io::HairFileData d;
+  d.strand_offsets = {0};
+  auto add = [&d](const std::vector<wet_curly_hair::Vec3>& pts) {
+    for (const auto& p : pts)
+      for (int k = 0; k < 3; ++k) d.points.push_back(static_cast<float>(p[k]));
+    d.strand_offsets.push_back(static_cast<uint32_t>(d.points.size() / 3));
+  };
+  for (int k = 0; k < 3; ++k) {  // 10 cm, 6 points, from the top of the head outwards
+    std::vector<wet_curly_hair::Vec3> line;
+    const double a = 2.0 * M_PI * k / 3.0;
+    for (int i = 0; i < 6; ++i)
+      line.emplace_back(0.02 * i * std::cos(a), 0.02 * i * std::sin(a), 0.111);
+    add(line);
+  }
+  add({{0, 0, 0.111}, {0, 0, 0.2}});                                       // 2 points
+  add({{0, 0, 0.111}, {0.01, 0, 0.111}, {kNaN, 0, 0.1}, {0.03, 0, 0.1}});  // NaN
+  const std::string path =
+      "/tmp/wch_test_node_services_groom_" + std::to_string(getpid()) + ".hair";
+  std::string why;
+  ASSERT_TRUE(wet_curly_hair::io::writeHairFile(path, d, &why)) << why;
+  Latest<wet_curly_hair::Status> status(nh_, "/wet_curly_hair/status");
+  const SetParameters::Response r = set({}, {}, {"groom_file.file"}, {path});
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_TRUE(r.reset);
+  wet_curly_hair::Status s;
+  EXPECT_TRUE(status.waitFor(
+      20.0, [](const wet_curly_hair::Status& m) { return m.strands == 3; }, &s))
+      << "no status with the file's 3 simulable strands within 20 s";
+  EXPECT_EQ(s.strands_skipped, 2u);
+  EXPECT_EQ(s.particles, 18);
+  ASSERT_TRUE(set({}, {}, {"groom_file.file"}, {""}).success);  // back to the generated groom
+  EXPECT_TRUE(status.waitFor(
+      20.0, [](const wet_curly_hair::Status& m) { return m.strands == 20; }, &s));
+  EXPECT_EQ(s.strands_skipped, 0u);
+  std::remove(path.c_str());
 }
 
 SetSaturation makeSat(float root, float tip, bool add = false) {

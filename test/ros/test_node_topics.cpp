@@ -45,6 +45,7 @@ TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
       30.0, [](const wet_curly_hair::Status& m) { return m.head_pose_ok && m.step > 5; }, &s))
       << "no status with the head pose and step > 5 within 30 s";
   EXPECT_EQ(s.strands, 24);
+  EXPECT_EQ(s.strands_skipped, 0u);  // a generated groom
   EXPECT_EQ(s.particles, 24 * 16);
   EXPECT_GT(s.substeps, 0);
   EXPECT_NEAR(s.frame_s, 1.0 / 30.0, 1e-9);

@@ -11,8 +11,30 @@ check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((f
 "$run" --seconds 0.2 --strands 5 --particles 16 --motion spin:rate_hz=1 --json "$out/a.json" \
   --hair-frames "$out/frames" --hair-stride 6 > "$out/stdout" 2> "$out/stderr"
 check "runs and exits 0" "[ $? -eq 0 ]"
-check "writes the JSON" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/a.json')); sys.exit(0 if d['strands']==5 and d['particles']==80 and d['finite'] else 1)\""
+check "writes the JSON" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/a.json')); sys.exit(0 if d['strands']==5 and d['particles']==80 and d['strands_skipped']==0 and d['finite'] else 1)\""
 check "writes frames" "[ -f $out/frames/frame_00012.hair ]"
+# A groom file with strands that cannot be simulated: they are skipped, counted in the JSON and
+# named in one warning; the others run with the default parameters.
+/usr/bin/python3 - "$out/mixed.hair" <<'PY'
+import math, struct, sys
+strands = []
+for k in range(3):  # 10 cm, 6 points, from the top of the head outwards
+    a = 2 * math.pi * k / 3
+    strands.append([(0.1 * i / 5 * math.cos(a), 0.1 * i / 5 * math.sin(a), 0.111) for i in range(6)])
+strands.insert(1, [(0, 0, 0.111), (0, 0, 0.2)])                                 # strand 1: 2 points
+strands.append([(0, 0, 0.111), (0.01, 0, 0.111), (float("nan"), 0, 0.1), (0.03, 0, 0.1)])  # 4: NaN
+points = [c for s in strands for p in s for c in p]
+header = b"HAIR" + struct.pack("<IIII", len(strands), len(points) // 3, 0b11, 0)
+header += struct.pack("<5f", 1, 0, 1, 1, 1) + bytes(88)
+body = struct.pack("<%dH" % len(strands), *[len(s) - 1 for s in strands])
+open(sys.argv[1], "wb").write(header + body + struct.pack("<%df" % len(points), *points))
+PY
+"$run" --seconds 0.05 --set "groom_file.file=$out/mixed.hair" --json "$out/mixed.json" \
+  > /dev/null 2> "$out/mixed.err"
+rc=$?
+check "a groom with bad strands runs and exits 0 (got $rc)" "[ $rc -eq 0 ]"
+check "the JSON counts simulated and skipped strands" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/mixed.json')); sys.exit(0 if d['strands']==3 and d['strands_skipped']==2 and d['particles']==18 else 1)\""
+check "one warning names the skipped strands" "[ \$(grep -c 'skipped 2 of 5 strands' $out/mixed.err) -eq 1 ] && grep -q 'strand 1 (2 points), strand 4 (non-finite point 2 in the file)' $out/mixed.err"
 for args in "--motion wobble" "--seconds abc" "--strands 0" "--set solver.nope=1" "--scene /no/such.yaml" "--bogus"; do
   "$run" $args > /dev/null 2> "$out/err"
   rc=$?

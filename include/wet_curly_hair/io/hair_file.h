@@ -70,17 +70,21 @@ struct HairFileData {
 };
 
 /// Checks that `data` can be written: at least one strand, offsets start at 0 and end at the point
-/// count, every strand has >= 2 points (and <= 65536 when the segments array is written, or
-/// exactly default_segments + 1 when it is not), optional arrays are empty or sized per point,
-/// point count <= 2^28 and all coordinates finite. On failure `*error` names the field.
+/// count, every strand has >= 1 point (and <= 65536 when the segments array is written, or
+/// exactly default_segments + 1 when it is not), optional arrays are empty or sized per point and
+/// point count <= 2^28. On failure `*error` names the field. Coordinates may be non-finite and a
+/// strand may have a single point: the format holds both, real exporters write them, and the
+/// reader keeps them so that importHairAsGroom can skip and name such strands (the writer writes
+/// what the reader reads).
 bool validateHairData(const HairFileData& data, std::string* error);
 
 /// Parses a whole `.hair` file held in memory. Safe for arbitrary bytes (never reads outside
 /// [data, data + size), never allocates more than a small multiple of `size`). Refuses a short
-/// header, bad magic, a missing points flag, zero strands, counts above 2^28, truncated arrays,
-/// segment counts that do not sum to the point count, strands with fewer than 2 points and
-/// non-finite coordinates. On failure returns false, sets `*error` (if non-null) to a message
-/// naming the field and offset, and leaves `*out` unchanged.
+/// header, bad magic, a missing points flag, zero strands, counts above 2^28, truncated arrays and
+/// segment counts that do not sum to the point count. Strands of one point and non-finite
+/// coordinates are data, not structure: they are kept (importHairAsGroom skips those strands).
+/// On failure returns false, sets `*error` (if non-null) to a message naming the field and
+/// offset, and leaves `*out` unchanged.
 bool parseHair(const uint8_t* data, size_t size, HairFileData* out, std::string* error);
 
 /// Reads and parses the file at `path` (see parseHair). Messages are prefixed with the path.
@@ -122,18 +126,63 @@ struct HairImportOptions {
   /// 0: keep the file's points; else (>= 2) resample each strand to exactly this many particles
   /// at equal chord length along the polyline (first = root, last = tip).
   int resample_particles = 0;
+  /// 0: off; else (> 0, finite) resample each strand at equal chords to about this edge length,
+  /// m: max(3, round(L / resample_edge_m) + 1) particles for a strand of arc length L (after
+  /// scaling), so particles per strand follow its length. Exclusive with resample_particles.
+  double resample_edge_m = 0.0;
   /// Head centre in the output frame, m: root normals are normalize(root - head_center_m) (or the
   /// direction of the strand's first edge when the root is at the head centre).
   Vec3 head_center_m = Vec3::Zero();
 };
 
+/// Shortest distance between two kept consecutive points of an imported strand, m (after
+/// scaling): a point closer than this to the previous kept one is a repeat and is dropped. The
+/// same bound as Groom::validate's zero-length edge.
+constexpr double kHairRepeatPointM = 1e-9;
+/// Shortest strand (arc length after scaling and dropping repeats) that is imported, m. Shorter
+/// strands are skipped as "near-zero length": 1 um is far below the thickness of any hair
+/// (17-180 um), so such a strand is not hair but a stub or noise, and at head-sized coordinates
+/// (~0.1-1 m) it spans only ~10-100 float32 ulps of the file, so its shape is rounding noise.
+/// A total length (not "every edge below a tolerance") because a finely sampled real strand may
+/// have many short edges; its length is what makes it hair.
+constexpr double kHairMinStrandLengthM = 1e-6;
+/// Fewest points (distinct, after dropping repeats) of an imported strand: with two points a
+/// strand has one edge and no bend, so the bending and curl models have nothing to act on.
+constexpr int kHairMinStrandPoints = 3;
+/// Most particles a strand gets from HairImportOptions::resample_edge_m (a longer strand is
+/// skipped with the reason named): the most a `.hair` segments array can hold.
+constexpr int kHairMaxResampledPoints = 65536;
+/// Most strands named in HairImportReport::warning(); the rest are counted ("and N more").
+constexpr int kHairMaxNamedSkips = 5;
+
+/// A strand of the file that importHairAsGroom did not import.
+struct SkippedStrand {
+  int index = 0;       ///< the strand's index in the file, 0-based.
+  std::string reason;  ///< e.g. "2 points", "non-finite point 3", "length 0 m".
+};
+
+/// What importHairAsGroom did with the strands of a file.
+struct HairImportReport {
+  int strands_in_file = 0;
+  int strands_imported = 0;
+  int repeated_points_dropped = 0;  ///< consecutive repeats removed from the imported strands.
+  std::vector<SkippedStrand> skipped;
+  /// One warning naming the skipped strands (the first kHairMaxNamedSkips with their reason,
+  /// then "and N more"), or "" when none was skipped.
+  std::string warning() const;
+};
+
 /// Imports `file` as a Groom: p_head = scale * upAxisRotation(up) * p_file + offset_m, then the
-/// optional resampling. Refuses invalid options, data that validateHairData rejects, a strand of
-/// total length 0 when resampling, an edge shorter than 1e-9 m (after scaling) when keeping the
-/// file's points, and non-finite results; the result passes Groom::validate. On failure `*groom`
-/// is unchanged.
+/// optional resampling. A strand that cannot be simulated is skipped and recorded in `*report`
+/// (when non-null), never a reason to refuse the groom: fewer than kHairMinStrandPoints points in
+/// the file, a non-finite point (in the file or after scaling), an arc length below
+/// kHairMinStrandLengthM, fewer than kHairMinStrandPoints distinct points once repeats (points
+/// within kHairRepeatPointM of the previous kept one) are dropped, or a resampling that fails.
+/// Refuses invalid options, data that validateHairData rejects, and a file none of whose strands
+/// can be imported (the message names why); the result passes Groom::validate. On failure
+/// `*groom` and `*report` are unchanged.
 bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, Groom* groom,
-                       std::string* error);
+                       std::string* error, HairImportReport* report = nullptr);
 
 /// Resamples the polyline `in` (>= 2 points, total length > 0) to exactly `count` (>= 2) points
 /// with equal chord (straight-line) distance between consecutive points, walking along the

@@ -41,7 +41,8 @@ struct RunOptions {
 };
 
 struct RunSummary {
-  int strands = 0;
+  int strands = 0;          ///< strands simulated.
+  int strands_skipped = 0;  ///< strands of the groom file not simulated (HairImportReport).
   int particles = 0;
   uint64_t steps = 0;
   double substep_s = 0.0;

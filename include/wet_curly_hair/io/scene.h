@@ -23,6 +23,9 @@ struct GroomFileConfig {
   std::string up_axis = "z";///< the file's up axis: x, y, z, -x, -y, -z.
   Vec3 offset_m = Vec3::Zero();  ///< added after scale and axis change (head frame).
   int resample_particles = 0;    ///< 0 keeps the file's points.
+  /// 0: off; else resample every strand to edges of about this length, m (particles per strand
+  /// follow its length, at least 3). Exclusive with resample_particles.
+  double resample_edge_m = 0.0;
 };
 
 /// Initial saturation: a root-to-tip ramp on every strand (scene section `saturation`).

@@ -126,6 +126,7 @@ class WetCurlyHairNode {
   std::mutex sim_mutex_;
   io::SceneConfig scene_;
   HairModel model_;
+  uint32_t strands_skipped_ = 0;  ///< strands of the groom file not simulated (Status)
   HairState state_;
   Obstacles obstacles_;
   double reach_radius_m_ = 0.0;  ///< farthest a particle can be from the head origin, m
