@@ -195,8 +195,9 @@ void appendObstacleMarkers(const std::vector<AnalyticObstacle>& obstacles, const
 
 namespace {
 
-/// Voxels of the field at or below zero with a face neighbour above zero (outside the grid
-/// counts as free: the field's box ends there, not the obstacle).
+/// Voxels of the field at or below zero with a face neighbour above zero. Outside the grid counts
+/// as free: past its box the solver's field grows like the distance to the box, so an obstacle
+/// the box cuts ends about at the cut, and the cut face is where the hair meets it.
 std::vector<Eigen::Vector3i> surfaceVoxels(const DenseSdf& sdf) {
   std::vector<Eigen::Vector3i> out;
   const Eigen::Vector3i& d = sdf.dims;
