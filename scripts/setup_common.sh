@@ -17,10 +17,15 @@ WCH_PACKAGES=(
   libeigen3-dev libyaml-cpp-dev libcairo2-dev libgtest-dev libtbb-dev
   gnuplot-nox clang libclang-rt-14-dev
 )
+# Only scripts/rviz_shot needs these (RViz under a virtual X server, and `import` for the PNG);
+# kept apart so that building and testing do not pull in RViz and Qt.
+WCH_RVIZ_SHOT_PACKAGES=(rviz xvfb imagemagick)
 
-wch_install_packages() {
+wch_install_packages() {  # [PACKAGE...]: those instead of WCH_PACKAGES
+  local wanted=("$@")
+  if [ ${#wanted[@]} -eq 0 ]; then wanted=("${WCH_PACKAGES[@]}"); fi
   local missing=()
-  for p in "${WCH_PACKAGES[@]}"; do
+  for p in "${wanted[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   if [ ${#missing[@]} -eq 0 ]; then return 0; fi

@@ -1,6 +1,7 @@
 #include "wet_curly_hair/ros/conversions.h"
 
 #include <algorithm>
+#include <unordered_set>
 
 namespace wet_curly_hair {
 
@@ -50,7 +51,7 @@ void stateToMarkerArray(const HairModel& model, const HairState& state, bool use
   markers->markers.resize(1);
   visualization_msgs::Marker& m = markers->markers[0];
   m.header = header;
-  m.ns = "wet_curly_hair/strands";
+  m.ns = kStrandsMarkerNs;
   m.id = 0;
   m.type = visualization_msgs::Marker::LINE_LIST;
   m.action = visualization_msgs::Marker::ADD;
@@ -83,6 +84,202 @@ void stateToMarkerArray(const HairModel& model, const HairState& state, bool use
       }
     }
   }
+}
+
+namespace {
+
+visualization_msgs::Marker solidMarker(const std_msgs::Header& header, const char* ns, int32_t id,
+                                       int32_t type, float r, float g, float b, float a) {
+  visualization_msgs::Marker m;
+  m.header = header;
+  m.ns = ns;
+  m.id = id;
+  m.type = type;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.color.r = r;
+  m.color.g = g;
+  m.color.b = b;
+  m.color.a = a;
+  return m;
+}
+
+void setScale(const Vec3& s, visualization_msgs::Marker* m) {
+  m->scale.x = s.x();
+  m->scale.y = s.y();
+  m->scale.z = s.z();
+}
+
+// Head: a light grey, far from the tan and blue of the hair's saturation colours.
+constexpr float kHeadRgba[4] = {0.78f, 0.78f, 0.80f, 1.0f};
+// Obstacles: translucent green, so the hair behind and inside them stays visible.
+constexpr float kObstacleRgba[4] = {0.35f, 0.70f, 0.40f, 0.6f};
+constexpr float kFieldRgba[4] = {0.35f, 0.60f, 0.35f, 1.0f};
+
+}  // namespace
+
+void appendHeadMarkers(const HeadShape& head, const Pose& head_pose, const std_msgs::Header& header,
+                       visualization_msgs::MarkerArray* markers) {
+  const float* c = kHeadRgba;
+  visualization_msgs::Marker e = solidMarker(
+      header, kHeadMarkerNs, 0, visualization_msgs::Marker::SPHERE, c[0], c[1], c[2], c[3]);
+  Pose at;
+  at.translation = head_pose.translation + head_pose.rotation * head.ellipsoid.center_m;
+  at.rotation = head_pose.rotation;
+  e.pose = poseToMsg(at);
+  setScale(2.0 * head.ellipsoid.radii_m, &e);
+  markers->markers.push_back(e);
+  int32_t id = 1;
+  for (const CapsuleShape& cap : head.capsules) {
+    const Vec3 a = head_pose.translation + head_pose.rotation * cap.a_m;
+    const Vec3 b = head_pose.translation + head_pose.rotation * cap.b_m;
+    const double d = 2.0 * cap.radius_m;
+    // RViz's CYLINDER has its axis along the marker's z.
+    visualization_msgs::Marker body = solidMarker(
+        header, kHeadMarkerNs, id++, visualization_msgs::Marker::CYLINDER, c[0], c[1], c[2], c[3]);
+    Pose mid;
+    mid.translation = 0.5 * (a + b);
+    const Vec3 axis = b - a;
+    mid.rotation =
+        axis.norm() > 0.0 ? Quat::FromTwoVectors(Vec3::UnitZ(), axis) : head_pose.rotation;
+    body.pose = poseToMsg(mid);
+    setScale(Vec3(d, d, axis.norm()), &body);
+    markers->markers.push_back(body);
+    for (const Vec3& end : {a, b}) {
+      visualization_msgs::Marker cap_end = solidMarker(
+          header, kHeadMarkerNs, id++, visualization_msgs::Marker::SPHERE, c[0], c[1], c[2], c[3]);
+      Pose p;
+      p.translation = end;
+      cap_end.pose = poseToMsg(p);
+      setScale(Vec3::Constant(d), &cap_end);
+      markers->markers.push_back(cap_end);
+    }
+  }
+}
+
+void appendObstacleMarkers(const std::vector<AnalyticObstacle>& obstacles, const Vec3& near_m,
+                           double plane_size_m, const std_msgs::Header& header,
+                           visualization_msgs::MarkerArray* markers) {
+  const float* c = kObstacleRgba;
+  for (size_t k = 0; k < obstacles.size(); ++k) {
+    const AnalyticObstacle& o = obstacles[k];
+    visualization_msgs::Marker m =
+        solidMarker(header, kObstacleMarkerNs, static_cast<int32_t>(k),
+                    visualization_msgs::Marker::CUBE, c[0], c[1], c[2], c[3]);
+    Pose p;
+    switch (o.shape) {
+      case AnalyticObstacle::Shape::kSphere:
+        m.type = visualization_msgs::Marker::SPHERE;
+        p.translation = o.center_m;
+        setScale(Vec3::Constant(2.0 * o.radius_m), &m);
+        break;
+      case AnalyticObstacle::Shape::kBox:
+        p.translation = o.center_m;
+        p.rotation = o.orientation;
+        setScale(2.0 * o.half_extents_m, &m);
+        break;
+      case AnalyticObstacle::Shape::kPlane: {
+        const Vec3 n = o.normal.normalized();
+        // Thickness on the obstacle side, so that the drawn top face is the plane itself.
+        const double thickness = 0.002;
+        p.translation = near_m - (near_m - o.center_m).dot(n) * n - 0.5 * thickness * n;
+        p.rotation = Quat::FromTwoVectors(Vec3::UnitZ(), n);
+        setScale(Vec3(plane_size_m, plane_size_m, thickness), &m);
+        break;
+      }
+    }
+    m.pose = poseToMsg(p);
+    markers->markers.push_back(m);
+  }
+}
+
+namespace {
+
+/// Voxels of the field at or below zero with a face neighbour above zero. Outside the grid counts
+/// as free: past its box the solver's field grows like the distance to the box, so an obstacle
+/// the box cuts ends about at the cut, and the cut face is where the hair meets it.
+std::vector<Eigen::Vector3i> surfaceVoxels(const DenseSdf& sdf) {
+  std::vector<Eigen::Vector3i> out;
+  const Eigen::Vector3i& d = sdf.dims;
+  auto freeAt = [&](int i, int j, int k) {
+    if (i < 0 || j < 0 || k < 0 || i >= d.x() || j >= d.y() || k >= d.z()) return true;
+    return sdf.distance_m[sdf.index(i, j, k)] > 0.0f;
+  };
+  for (int k = 0; k < d.z(); ++k)
+    for (int j = 0; j < d.y(); ++j)
+      for (int i = 0; i < d.x(); ++i) {
+        if (!(sdf.distance_m[sdf.index(i, j, k)] <= 0.0f)) continue;
+        if (freeAt(i - 1, j, k) || freeAt(i + 1, j, k) || freeAt(i, j - 1, k) ||
+            freeAt(i, j + 1, k) || freeAt(i, j, k - 1) || freeAt(i, j, k + 1))
+          out.emplace_back(i, j, k);
+      }
+  return out;
+}
+
+/// The distinct blocks of edge `block` voxels that hold the given voxels.
+std::vector<Eigen::Vector3i> mergeIntoBlocks(const std::vector<Eigen::Vector3i>& voxels,
+                                             int block) {
+  std::unordered_set<uint64_t> seen;
+  std::vector<Eigen::Vector3i> out;
+  for (const Eigen::Vector3i& v : voxels) {
+    const Eigen::Vector3i b = v / block;  // voxel indices are non-negative
+    const uint64_t key = (static_cast<uint64_t>(b.x()) << 42) |
+                         (static_cast<uint64_t>(b.y()) << 21) | static_cast<uint64_t>(b.z());
+    if (seen.insert(key).second) out.push_back(b);
+  }
+  return out;
+}
+
+}  // namespace
+
+int obstacleFieldMarker(const ObstacleField& field, size_t max_cubes,
+                        const std_msgs::Header& header, visualization_msgs::Marker* marker) {
+  const float* c = kFieldRgba;
+  *marker = solidMarker(header, kObstacleFieldMarkerNs, 0, visualization_msgs::Marker::CUBE_LIST,
+                        c[0], c[1], c[2], c[3]);
+  if (!field.sdf || field.sdf->empty() || max_cubes == 0) return 0;
+  const DenseSdf& sdf = *field.sdf;
+  const std::vector<Eigen::Vector3i> surface = surfaceVoxels(sdf);
+  std::vector<Eigen::Vector3i> cells = surface;
+  int block = 1;
+  while (cells.size() > max_cubes) {
+    // A surface's block count falls roughly as 1/k^2: start from that guess, then step up.
+    const int guess = static_cast<int>(std::ceil(
+        block * std::sqrt(static_cast<double>(cells.size()) / static_cast<double>(max_cubes))));
+    block = std::max(block + 1, guess);
+    cells = mergeIntoBlocks(surface, block);
+  }
+  marker->pose = poseToMsg(field.field_in_world);
+  setScale(Vec3::Constant(block * sdf.voxel_m), marker);
+  marker->points.resize(cells.size());
+  // A block's centre: origin_m is the centre of voxel 0, so block b spans voxel centres
+  // b * k ... b * k + k - 1.
+  const double offset = 0.5 * (block - 1);
+  for (size_t n = 0; n < cells.size(); ++n) {
+    const Vec3 x =
+        sdf.origin_m + sdf.voxel_m * (cells[n].cast<double>() * block + Vec3::Constant(offset));
+    marker->points[n].x = x.x();
+    marker->points[n].y = x.y();
+    marker->points[n].z = x.z();
+  }
+  return block;
+}
+
+void deleteVanishedMarkers(std::set<std::pair<std::string, int32_t>>* published,
+                           visualization_msgs::MarkerArray* markers) {
+  std::set<std::pair<std::string, int32_t>> now;
+  for (const visualization_msgs::Marker& m : markers->markers) now.emplace(m.ns, m.id);
+  for (const auto& key : *published) {
+    if (now.count(key)) continue;
+    visualization_msgs::Marker del;
+    del.header = markers->markers.empty() ? std_msgs::Header() : markers->markers[0].header;
+    del.ns = key.first;
+    del.id = key.second;
+    del.action = visualization_msgs::Marker::DELETE;
+    del.pose.orientation.w = 1.0;
+    markers->markers.push_back(del);
+  }
+  *published = std::move(now);
 }
 
 geometry_msgs::Pose poseToMsg(const Pose& pose) {

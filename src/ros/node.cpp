@@ -239,8 +239,10 @@ void WetCurlyHairNode::onTimer(const ros::TimerEvent&) {
   header.frame_id = config_.world_frame;
   if (config_.publish_markers && markers_pub_.getNumSubscribers() > 0) {
     auto t0 = Clock::now();
-    stateToMarkerArray(model_, state_, scene_.solver.cohesion.mode != "off", header,
+    // Only "ours" computes display positions p^w; the other modes leave them equal to x.
+    stateToMarkerArray(model_, state_, scene_.solver.cohesion.mode == "ours", header,
                        config_.marker_line_width_m, &markers_msg_);
+    appendSceneMarkersLocked(header);
     tick_convert_s_ += wallSince(t0);
     t0 = Clock::now();
     markers_pub_.publish(markers_msg_);
@@ -393,6 +395,29 @@ void WetCurlyHairNode::publishStrandsLocked() {
   t0 = Clock::now();
   strands_pub_.publish(strands_msg_);
   tick_publish_s_ += wallSince(t0);
+}
+
+void WetCurlyHairNode::appendSceneMarkersLocked(const std_msgs::Header& header) {
+  // The head in the world frame at head_pose_, the pose the solver used for this state, rather
+  // than in the head frame: what is drawn is where the hair collided, in the same message and
+  // stamp as the hair, also when the node fell back on the last pose (tf2 late or missing),
+  // and RViz needs no transform at that stamp.
+  appendHeadMarkers(model_.head, head_pose_, header, &markers_msg_);
+  appendObstacleMarkers(obstacles_.analytic, head_pose_.translation, 4.0 * reach_radius_m_, header,
+                        &markers_msg_);
+  if (obstacles_.field.sdf) {
+    // The surface is found once per field (a scan of the grid), then sent with every array so
+    // that a display that subscribes late still gets it. At most 10,000 cubes (240 kB): about
+    // the size of the built-in scene's hair marker.
+    constexpr size_t kMaxFieldCubes = 10000;
+    if (field_marker_of_.lock() != obstacles_.field.sdf) {
+      obstacleFieldMarker(obstacles_.field, kMaxFieldCubes, header, &field_marker_);
+      field_marker_of_ = obstacles_.field.sdf;
+    }
+    field_marker_.header = header;
+    markers_msg_.markers.push_back(field_marker_);
+  }
+  deleteVanishedMarkers(&published_markers_, &markers_msg_);
 }
 
 void WetCurlyHairNode::fillStatusLocked(Status* s) {

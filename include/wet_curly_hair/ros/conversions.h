@@ -1,6 +1,7 @@
 // Conversions between the core's types and ROS messages: the state as a Strands message and as
-// an RViz LINE_LIST, poses, and saturation requests. No ROS node handles here: pure functions,
-// unit-tested without a master (test/ros/test_ros_conversions.cpp).
+// an RViz LINE_LIST, the head and the obstacles as RViz markers, poses, and saturation requests. No
+// ROS node handles here: pure functions, unit-tested without a master
+// (test/ros/test_ros_conversions.cpp).
 #pragma once
 
 #include <geometry_msgs/Pose.h>
@@ -9,10 +10,15 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include <cmath>
+#include <cstdint>
+#include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "wet_curly_hair/Strands.h"
 #include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/obstacles.h"
 #include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/state.h"
 #include "wet_curly_hair/core/types.h"
@@ -29,12 +35,48 @@ void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with
 /// clamped to [0, 1], non-finite taken as 0). rgb in [0, 1].
 void saturationColor(double s, float* r, float* g, float* b);
 
-/// One LINE_LIST marker (ns "wet_curly_hair/strands", id 0) holding every edge of every strand,
-/// two points per edge, each vertex coloured by its particle's saturation. Uses the cohesion
-/// display positions when `use_wet_positions` (what the user should see), else the positions.
+/// Resets *markers to one LINE_LIST marker (ns "wet_curly_hair/strands", id 0) holding every edge
+/// of every strand, two points per edge, each vertex coloured by its particle's saturation. Uses
+/// the cohesion display positions when `use_wet_positions` (what the user should see), else the
+/// positions.
 void stateToMarkerArray(const HairModel& model, const HairState& state, bool use_wet_positions,
                         const std_msgs::Header& header, double line_width_m,
                         visualization_msgs::MarkerArray* markers);
+
+/// Marker namespaces on ~markers (docs/ros.md).
+constexpr const char* kStrandsMarkerNs = "wet_curly_hair/strands";
+constexpr const char* kHeadMarkerNs = "wet_curly_hair/head";
+constexpr const char* kObstacleMarkerNs = "wet_curly_hair/obstacles";
+constexpr const char* kObstacleFieldMarkerNs = "wet_curly_hair/obstacle_field";
+
+/// Appends the head's collision shapes placed at head_pose (world <- head), in header's frame
+/// (the world frame): the ellipsoid as a SPHERE scaled to its diameters (id 0), and each
+/// capsule k as a CYLINDER (id 1 + 3k) with its two end caps as SPHEREs (ids 2 + 3k, 3 + 3k),
+/// RViz having no capsule.
+void appendHeadMarkers(const HeadShape& head, const Pose& head_pose, const std_msgs::Header& header,
+                       visualization_msgs::MarkerArray* markers);
+
+/// Appends one marker per analytic obstacle, id = its index: a SPHERE, an oriented CUBE, and for
+/// a plane a square CUBE of side plane_size_m and 2 mm thickness lying on the plane, centred at
+/// the point of the plane nearest to `near_m` (the head), since an infinite plane cannot be drawn.
+void appendObstacleMarkers(const std::vector<AnalyticObstacle>& obstacles, const Vec3& near_m,
+                           double plane_size_m, const std_msgs::Header& header,
+                           visualization_msgs::MarkerArray* markers);
+
+/// The obstacle field's surface as one CUBE_LIST (ns kObstacleFieldMarkerNs, id 0), placed by
+/// field_in_world: the voxels at or below zero distance that have a face neighbour above zero
+/// (the interior would be hidden anyway). When there are more than max_cubes of them, voxels are
+/// merged into blocks of k x k x k (k the smallest that fits; a block is drawn when any of its
+/// voxels is), so the message stays bounded whatever the map. Returns the block edge k in voxels,
+/// or 0 (and an empty CUBE_LIST) when there is no field or max_cubes is 0.
+int obstacleFieldMarker(const ObstacleField& field, size_t max_cubes,
+                        const std_msgs::Header& header, visualization_msgs::Marker* marker);
+
+/// `published` holds the (ns, id) of the markers published last time: a DELETE is appended for
+/// each one that *markers no longer holds (an obstacle removed, a capsule less), so RViz does not
+/// keep drawing it. Then `published` becomes the keys of *markers.
+void deleteVanishedMarkers(std::set<std::pair<std::string, int32_t>>* published,
+                           visualization_msgs::MarkerArray* markers);
 
 geometry_msgs::Pose poseToMsg(const Pose& pose);
 /// From a tf2 transform (target <- source): x_target = R x_source + t. The quaternion is

@@ -19,7 +19,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
+#include <utility>
 
 #include "wet_curly_hair/GetParameters.h"
 #include "wet_curly_hair/LoadObstacleMap.h"
@@ -81,6 +83,8 @@ class WetCurlyHairNode {
   void maybeRebuildFieldLocked();
   Eigen::AlignedBox3d reachBoxLocked() const;
   void publishStrandsLocked();
+  /// Head, obstacle and obstacle-field markers beside the hair in markers_msg_ (docs/ros.md).
+  void appendSceneMarkersLocked(const std_msgs::Header& header);
   void fillStatusLocked(Status* status);
 
   bool onSetSaturation(SetSaturation::Request& req, SetSaturation::Response& res);
@@ -149,6 +153,9 @@ class WetCurlyHairNode {
   FieldInfo field_;
   Strands strands_msg_;  ///< reused storage
   visualization_msgs::MarkerArray markers_msg_;
+  std::set<std::pair<std::string, int32_t>> published_markers_;  ///< (ns, id) sent last time
+  visualization_msgs::Marker field_marker_;        ///< the field's surface, made once per field
+  std::weak_ptr<const DenseSdf> field_marker_of_;  ///< the field field_marker_ was made from
   // timing of the current tick (wall, s)
   double tick_step_s_ = 0.0, tick_convert_s_ = 0.0, tick_publish_s_ = 0.0, tick_tf_s_ = 0.0;
   int tick_frames_ = 0;
