@@ -6,7 +6,7 @@
 #include <iostream>
 #include <string>
 
-#include "wet_curly_hair/io/offline_run.h"
+#include "wet_curly_hair/runner/offline_run.h"
 #include "wet_curly_hair/io/scene.h"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "wet_curly_hair/io/offline_run.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 #include <algorithm>
 #include <chrono>
