@@ -1,5 +1,7 @@
 #include "wet_curly_hair/runner/offline_run.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -7,7 +9,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
-#include <sys/stat.h>
 
 #include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/metrics.h"
@@ -131,13 +132,10 @@ bool writeFrame(const std::string& dir, int frame, const HairModel& model, const
   return writeHairFile(dir + name, data, why);
 }
 
-}  // namespace
-
-bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
-              std::string* why) {
-  const long rss_start_kb = procStatusKb("VmRSS:");
-  HairModel model;
-  if (!buildSceneModel(scene, &model, why)) return false;
+/// The options that runScene checks before it builds anything, and the saturation events in
+/// time order. The hair frames folder is created here.
+bool checkOptions(const RunOptions& options, const HairModel& model,
+                  std::vector<RunOptions::SaturationEvent>* events, std::string* why) {
   if (options.series_stride < 1) {
     if (why) *why = "--series-stride: must be at least 1";
     return false;
@@ -146,8 +144,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     if (why) *why = "--rtf-window: must be positive";
     return false;
   }
-  std::vector<RunOptions::SaturationEvent> events = options.saturation_events;
-  for (const RunOptions::SaturationEvent& e : events) {
+  *events = options.saturation_events;
+  for (const RunOptions::SaturationEvent& e : *events) {
     SaturationCommand c;
     c.root_value = e.root;
     c.tip_value = e.tip;
@@ -161,7 +159,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       return false;
     }
   }
-  std::stable_sort(events.begin(), events.end(),
+  std::stable_sort(events->begin(), events->end(),
                    [](const RunOptions::SaturationEvent& a, const RunOptions::SaturationEvent& b) {
                      return a.time_s < b.time_s;
                    });
@@ -177,6 +175,11 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       return false;
     }
   }
+  return true;
+}
+
+/// The summary's description of the run (what it is, not what it measured).
+RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, long rss_start_kb) {
   RunSummary s;
   s.rss_start_kb = rss_start_kb;
   s.series_stride = options.series_stride;
@@ -188,6 +191,11 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.threads = scene.solver.integrator.threads;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);
+  return s;
+}
+
+/// The groom on the head at t = 0, wet as the scene says.
+HairState initialState(const SceneConfig& scene, const HairModel& model) {
   const HeadMotionConfig& motion = scene.motion;
   HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
   if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
@@ -196,168 +204,323 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     wet.tip_value = scene.saturation.tip;
     applySaturation(model, wet, headPose(motion, 0.0), &state);
   }
-  Obstacles obstacles;
-  obstacles.analytic = scene.obstacles;
-  const double frame = scene.run.frame_s;
-  const long frames = std::lround(scene.run.seconds / frame);
-  if (!scene.obstacle_map.file.empty()) {
-    // The field covers the box the hair can reach: every root over the scripted motion, grown by
-    // the longest strand (buildSdfFromOctree adds the margin).
-    std::unique_ptr<octomap::OcTree> tree;
-    std::string inner;
-    if (!loadOctreeFile(scene.obstacle_map.file, &tree, &inner)) {
-      if (why) *why = "obstacle_map.file: " + inner;
-      return false;
-    }
-    double longest = 0.0;
-    for (double l : model.strand_length_m) longest = std::max(longest, l);
-    Eigen::AlignedBox3d reach;
-    for (long f = 0; f <= frames; ++f) {
-      const Pose pose = headPose(motion, f * frame);
-      for (int st = 0; st < model.strandCount(); ++st)
-        reach.extend(pose.apply(model.rest_position_head[model.strandBegin(st)]));
-    }
-    reach.min() -= Vec3::Constant(longest);
-    reach.max() += Vec3::Constant(longest);
-    SdfBuildConfig build;
-    build.resolution_m = scene.obstacle_map.resolution_m;
-    build.margin_m = scene.obstacle_map.margin_m;
-    build.unknown_is_occupied = scene.obstacle_map.unknown_is_occupied;
-    Pose map_in_world;
-    map_in_world.translation = scene.obstacle_map.offset_m;
-    auto sdf = std::make_shared<DenseSdf>();
-    SdfBuildStats stats;
-    if (!buildSdfFromOctree(*tree, map_in_world, reach, build, sdf.get(), &obstacles.field.field_in_world,
-                            &stats, &inner)) {
-      if (why) *why = "obstacle_map: " + inner;
-      return false;
-    }
-    obstacles.field.sdf = sdf;
-    s.sdf_build_s = stats.total_s;
+  return state;
+}
+
+/// The signed distance field of the scene's OctoMap, over the box the hair can reach: every root
+/// over the scripted motion, grown by the longest strand (buildSdfFromOctree adds the margin).
+bool buildObstacleField(const SceneConfig& scene, const HairModel& model, long frames,
+                        Obstacles* obstacles, double* build_s, std::string* why) {
+  std::unique_ptr<octomap::OcTree> tree;
+  std::string inner;
+  if (!loadOctreeFile(scene.obstacle_map.file, &tree, &inner)) {
+    if (why) *why = "obstacle_map.file: " + inner;
+    return false;
   }
-  s.strands = model.strandCount();
-  s.particles = model.particleCount();
-  s.substep_s = frame / substepCount(scene.solver, frame);
-  // Output positions in the head frame for the jitter (three frames kept, allocated once).
-  Vec3List out_prev2(model.particleCount()), out_prev1(model.particleCount());
-  double jitter_sum = 0.0;
-  long jitter_count = 0;
-  std::vector<double> contact_time(model.strandCount(), 0.0);
-  NeighborGrid metric_grid;
-  metric_grid.resize(model.particleCount(), model.strand_offsets);
-  // What the motion can put in: the groom carried rigidly by the head (RunSummary).
-  {
-    auto rigidPotential = [&](const Pose& pose) {
-      double u = 0.0;
-      for (int st = 0; st < model.strandCount(); ++st)
-        for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-          u -= model.mass_kg[i] * scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
-      return u;
-    };
+  double longest = 0.0;
+  for (double l : model.strand_length_m) longest = std::max(longest, l);
+  Eigen::AlignedBox3d reach;
+  for (long f = 0; f <= frames; ++f) {
+    const Pose pose = headPose(scene.motion, f * scene.run.frame_s);
+    for (int st = 0; st < model.strandCount(); ++st)
+      reach.extend(pose.apply(model.rest_position_head[model.strandBegin(st)]));
+  }
+  reach.min() -= Vec3::Constant(longest);
+  reach.max() += Vec3::Constant(longest);
+  SdfBuildConfig build;
+  build.resolution_m = scene.obstacle_map.resolution_m;
+  build.margin_m = scene.obstacle_map.margin_m;
+  build.unknown_is_occupied = scene.obstacle_map.unknown_is_occupied;
+  Pose map_in_world;
+  map_in_world.translation = scene.obstacle_map.offset_m;
+  auto sdf = std::make_shared<DenseSdf>();
+  SdfBuildStats stats;
+  if (!buildSdfFromOctree(*tree, map_in_world, reach, build, sdf.get(),
+                          &obstacles->field.field_in_world, &stats, &inner)) {
+    if (why) *why = "obstacle_map: " + inner;
+    return false;
+  }
+  obstacles->field.sdf = sdf;
+  *build_s = stats.total_s;
+  return true;
+}
+
+/// What the motion can put in: the groom carried rigidly by the head (RunSummary's
+/// rigid_kinetic_energy_max_j, rigid_potential_rise_max_j, head_peak_reach_speed_m_s and
+/// hair_mass_kg).
+void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long frames,
+                        RunSummary* s) {
+  const HeadMotionConfig& motion = scene.motion;
+  const double frame = scene.run.frame_s;
+  auto rigidPotential = [&](const Pose& pose) {
+    double u = 0.0;
     for (int st = 0; st < model.strandCount(); ++st)
       for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-        s.hair_mass_kg += model.mass_kg[i];
-    const double u0 = rigidPotential(headPose(motion, 0.0));
-    for (long f = 0; f < frames; ++f) {
-      const Pose a = headPose(motion, f * frame), b = headPose(motion, (f + 1) * frame);
-      double ke = 0.0;
-      for (int st = 0; st < model.strandCount(); ++st)
-        for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-          ke += 0.5 * model.mass_kg[i] *
-                ((b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame)
-                    .squaredNorm();
-      s.rigid_kinetic_energy_max_j = std::max(s.rigid_kinetic_energy_max_j, ke);
-      // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
-      const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
-      const double w = std::abs(turn.angle()) / frame;
-      const double v_origin = (b.translation - a.translation).norm() / frame;
-      for (int st = 0; st < model.strandCount(); ++st) {
-        const double r = (a.apply(model.rest_position_head[model.strandBegin(st)]) - a.translation).norm();
-        s.head_peak_reach_speed_m_s = std::max(s.head_peak_reach_speed_m_s,
-                                               v_origin + w * (r + model.strand_length_m[st]));
-      }
-      s.rigid_potential_rise_max_j = std::max(s.rigid_potential_rise_max_j, rigidPotential(b) - u0);
+        u -= model.mass_kg[i] *
+             scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
+    return u;
+  };
+  for (int st = 0; st < model.strandCount(); ++st)
+    for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+      s->hair_mass_kg += model.mass_kg[i];
+  const double u0 = rigidPotential(headPose(motion, 0.0));
+  for (long f = 0; f < frames; ++f) {
+    const Pose a = headPose(motion, f * frame), b = headPose(motion, (f + 1) * frame);
+    double ke = 0.0;
+    for (int st = 0; st < model.strandCount(); ++st)
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+        ke +=
+            0.5 * model.mass_kg[i] *
+            ((b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame)
+                .squaredNorm();
+    s->rigid_kinetic_energy_max_j = std::max(s->rigid_kinetic_energy_max_j, ke);
+    // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
+    const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
+    const double w = std::abs(turn.angle()) / frame;
+    const double v_origin = (b.translation - a.translation).norm() / frame;
+    for (int st = 0; st < model.strandCount(); ++st) {
+      const double r =
+          (a.apply(model.rest_position_head[model.strandBegin(st)]) - a.translation).norm();
+      s->head_peak_reach_speed_m_s =
+          std::max(s->head_peak_reach_speed_m_s, v_origin + w * (r + model.strand_length_m[st]));
+    }
+    s->rigid_potential_rise_max_j = std::max(s->rigid_potential_rise_max_j, rigidPotential(b) - u0);
+  }
+}
+
+/// The per-frame measurements (energy, strain, penetration, extension, jitter, tangles) and the
+/// final-frame ones, with the buffers they need allocated once.
+class FrameMeasurements {
+ public:
+  FrameMeasurements(const SceneConfig& scene, const HairModel& model, const Obstacles& obstacles,
+                    const RunOptions& options, long frames)
+      : scene_(scene),
+        model_(model),
+        obstacles_(obstacles),
+        options_(options),
+        frames_(frames),
+        out_prev2_(model.particleCount()),
+        out_prev1_(model.particleCount()),
+        contact_time_(model.strandCount(), 0.0) {
+    metric_grid_.resize(model.particleCount(), model.strand_offsets);
+  }
+
+  /// Frame f (0: the initial state) at time t, the head at pose.
+  void record(long f, double t, const Pose& pose, HairState* state, RunSummary* s) {
+    if (f % options_.series_stride == 0 || f == frames_) {
+      const EnergyParts e = energy(model_, scene_.solver, pose, state);
+      s->time_s.push_back(t);
+      s->energy.push_back(e.total());
+      s->kinetic_energy.push_back(e.kinetic);
+      s->max_speed_m_s.push_back(maxSpeed(model_, *state));
+    }
+    ++recorded_frames_;
+    const StrainStats strain = edgeStrain(model_, *state);
+    s->max_strain = std::max(s->max_strain, strain.max);
+    s->mean_strain += strain.mean;
+    const double head_pen = maxHeadPenetration(model_, *state, pose);
+    s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
+    double obstacle_pen = 0.0, extension = 0.0, ext_sum = 0.0;
+    measureStrands(f, *state, &obstacle_pen, &extension, &ext_sum);
+    s->max_obstacle_penetration_m = std::max(s->max_obstacle_penetration_m, obstacle_pen);
+    s->max_strand_extension = std::max(s->max_strand_extension, extension);
+    if (f >= 1) {
+      s->max_head_penetration_after_first_step_m =
+          std::max(s->max_head_penetration_after_first_step_m, head_pen);
+      s->max_obstacle_penetration_after_first_step_m =
+          std::max(s->max_obstacle_penetration_after_first_step_m, obstacle_pen);
+    }
+    if (f == 0) {
+      s->max_strain_start = strain.max;
+      s->mean_strain_start = strain.mean;
+      s->max_strand_extension_start = extension;
+      s->mean_strand_extension_start = ext_sum / model_.strandCount();
+    }
+    s->max_strain_end = strain.max;
+    s->mean_strain_end = strain.mean;
+    s->max_strand_extension_end = extension;
+    s->mean_strand_extension_end = ext_sum / model_.strandCount();
+    measureJitter(f, *state, pose);
+    if (f % 10 == 0) {
+      s->max_tangles = std::max(
+          s->max_tangles,
+          tangleCount(model_, state->wet_position, scene_.run.strand_radius_m, &metric_grid_));
     }
   }
 
-  long recorded_frames = 0;
-  auto record = [&](long f, double t, const Pose& pose) {
-    if (f % options.series_stride == 0 || f == frames) {
-      const EnergyParts e = energy(model, scene.solver, pose, &state);
-      s.time_s.push_back(t);
-      s.energy.push_back(e.total());
-      s.kinetic_energy.push_back(e.kinetic);
-      s.max_speed_m_s.push_back(maxSpeed(model, state));
-    }
-    ++recorded_frames;
-    const StrainStats strain = edgeStrain(model, state);
-    s.max_strain = std::max(s.max_strain, strain.max);
-    s.mean_strain += strain.mean;
-    const double head_pen = maxHeadPenetration(model, state, pose);
-    s.max_penetration_m = std::max(s.max_penetration_m, head_pen);
-    double obstacle_pen = 0.0, extension = -std::numeric_limits<double>::infinity(), ext_sum = 0.0;
-    for (int st = 0; st < model.strandCount(); ++st) {
-      const int b = model.strandBegin(st), n = model.strandSize(st);
+  /// The measurements of the last frame and the means over the run.
+  void finish(const HairState& state, RunSummary* s) {
+    // max_penetration_m covers the head and the obstacles alike.
+    s->max_penetration_m = std::max(s->max_penetration_m, s->max_obstacle_penetration_m);
+    s->max_penetration_after_first_step_m = std::max(
+        s->max_head_penetration_after_first_step_m, s->max_obstacle_penetration_after_first_step_m);
+    s->jitter_m = jitter_count_ ? std::sqrt(jitter_sum_ / jitter_count_) : 0.0;
+    s->clump_distance_m = clumpDistance(model_, state.wet_position, state.saturation,
+                                        scene_.run.clump_search_m, &metric_grid_);
+    s->tangles = tangleCount(model_, state.wet_position, scene_.run.strand_radius_m, &metric_grid_);
+    s->max_tangles = std::max(s->max_tangles, s->tangles);
+    s->tangles_sim = tangleCount(model_, state.position, scene_.run.strand_radius_m, &metric_grid_);
+    const CurlShape curl = tipCurlShape(model_, state.position);
+    s->curl_radius_tip_m = curl.radius_m;
+    s->curl_pitch_tip_m = curl.pitch_m;
+    double contact_sum = 0.0;
+    int touched = 0;
+    for (double c : contact_time_)
+      if (c > 0.0) contact_sum += c, ++touched;
+    s->obstacle_contact_s = touched ? contact_sum / touched : 0.0;
+    if (recorded_frames_ > 0) s->mean_strain /= static_cast<double>(recorded_frames_);
+  }
+
+ private:
+  /// Per strand: arc length over rest length (largest and summed extension), the deepest
+  /// obstacle penetration, and the time within the adhesion band of an obstacle.
+  void measureStrands(long f, const HairState& state, double* obstacle_pen, double* extension,
+                      double* ext_sum) {
+    *extension = -std::numeric_limits<double>::infinity();
+    for (int st = 0; st < model_.strandCount(); ++st) {
+      const int b = model_.strandBegin(st), n = model_.strandSize(st);
       double arc = 0.0;
       bool touching = false;
       for (int i = b; i < b + n; ++i) {
         if (i + 1 < b + n) arc += (state.position[i + 1] - state.position[i]).norm();
-        if (!obstacles.empty() && i > b) {
+        if (!obstacles_.empty() && i > b) {
           Vec3 normal;
-          const double dist = obstacles.distance(state.position[i], &normal);
-          touching = touching || dist <= scene.solver.adhesion.radius_m;
-          obstacle_pen = std::max(obstacle_pen, -dist);
+          const double dist = obstacles_.distance(state.position[i], &normal);
+          touching = touching || dist <= scene_.solver.adhesion.radius_m;
+          *obstacle_pen = std::max(*obstacle_pen, -dist);
         }
       }
-      extension = std::max(extension, arc / model.strand_length_m[st] - 1.0);
-      ext_sum += arc / model.strand_length_m[st] - 1.0;
-      if (touching && f > 0) contact_time[st] += frame;
+      *extension = std::max(*extension, arc / model_.strand_length_m[st] - 1.0);
+      *ext_sum += arc / model_.strand_length_m[st] - 1.0;
+      if (touching && f > 0) contact_time_[st] += scene_.run.frame_s;
     }
-    s.max_obstacle_penetration_m = std::max(s.max_obstacle_penetration_m, obstacle_pen);
-    s.max_strand_extension = std::max(s.max_strand_extension, extension);
-    if (f >= 1) {
-      s.max_head_penetration_after_first_step_m =
-          std::max(s.max_head_penetration_after_first_step_m, head_pen);
-      s.max_obstacle_penetration_after_first_step_m =
-          std::max(s.max_obstacle_penetration_after_first_step_m, obstacle_pen);
-    }
-    if (f == 0) {
-      s.max_strain_start = strain.max;
-      s.mean_strain_start = strain.mean;
-      s.max_strand_extension_start = extension;
-      s.mean_strand_extension_start = ext_sum / model.strandCount();
-    }
-    s.max_strain_end = strain.max;
-    s.mean_strain_end = strain.mean;
-    s.max_strand_extension_end = extension;
-    s.mean_strand_extension_end = ext_sum / model.strandCount();
-    for (int i = 0; i < model.particleCount(); ++i) {
+  }
+
+  /// Output positions in the head frame, three frames kept: RMS second difference.
+  void measureJitter(long f, const HairState& state, const Pose& pose) {
+    for (int i = 0; i < model_.particleCount(); ++i) {
       const Vec3 x = pose.applyInverse(state.wet_position[i]);
       if (f >= 2) {
-        jitter_sum += (x - 2.0 * out_prev1[i] + out_prev2[i]).squaredNorm();
-        ++jitter_count;
+        jitter_sum_ += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
+        ++jitter_count_;
       }
-      out_prev2[i] = out_prev1[i];
-      out_prev1[i] = x;
+      out_prev2_[i] = out_prev1_[i];
+      out_prev1_[i] = x;
     }
-    if (f % 10 == 0) {
-      s.max_tangles = std::max(
-          s.max_tangles, tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid));
-    }
-  };
-  if (options.measure) record(0, 0.0, headPose(motion, 0.0));
-  if (options.on_frame) options.on_frame(0, state);
-  if (!options.hair_frames_dir.empty()) {
-    if (!writeFrame(options.hair_frames_dir, 0, model, state, why)) return false;
-    ++s.hair_frames_written;
   }
-  double wall = 0.0, window_wall = 0.0, window_sim = 0.0;
+
+  const SceneConfig& scene_;
+  const HairModel& model_;
+  const Obstacles& obstacles_;
+  const RunOptions& options_;
+  const long frames_;
+  Vec3List out_prev2_, out_prev1_;
+  double jitter_sum_ = 0.0;
+  long jitter_count_ = 0;
+  std::vector<double> contact_time_;
+  NeighborGrid metric_grid_;
+  long recorded_frames_ = 0;
+};
+
+/// The solver's counters of one step, added to the summary.
+void addStepStats(const StepStats& stats, RunSummary* s) {
+  for (int k = 0; k < kStageCount; ++k) {
+    s->stage_particles[k] += stats.stage_particles[k];
+    s->stage_cpu_s[k] += stats.stage_cpu_s[k];
+  }
+  s->max_strain_before_limit = std::max(s->max_strain_before_limit, stats.max_strain_before_limit);
+  s->velocity_clamps += stats.velocity_clamps;
+  s->strain_limited_edges += stats.strain_limited_edges;
+  s->head_contacts += stats.head_contacts;
+  s->constraint_rounds += stats.constraint_rounds;
+  s->adhesion_active += stats.adhesion_active;
+  s->obstacle_contacts += stats.obstacle_contacts;
+  s->cohesion_particles += stats.cohesion_particles;
+}
+
+/// Wall time of the steps: the total and the real-time factor per rtf_window_s of simulated time.
+class StepClock {
+ public:
+  StepClock(double window_s, double frame_s, long frames)
+      : window_s_(window_s), frame_s_(frame_s), frames_(frames) {}
+  /// Frame f took step_wall seconds.
+  void add(long f, double step_wall, RunSummary* s) {
+    wall_ += step_wall;
+    window_wall_ += step_wall;
+    window_sim_ += frame_s_;
+    if ((f + 1) * frame_s_ >= (s->realtime_factor_windows.size() + 1) * window_s_ - 1e-9 ||
+        f + 1 == frames_) {
+      s->realtime_factor_windows.push_back(window_wall_ > 0.0 ? window_sim_ / window_wall_ : 0.0);
+      window_wall_ = window_sim_ = 0.0;
+    }
+  }
+  double wall() const { return wall_; }
+
+ private:
+  double window_s_, frame_s_;
+  long frames_;
+  double wall_ = 0.0, window_wall_ = 0.0, window_sim_ = 0.0;
+};
+
+/// The run's end state: steps, times, warnings, finiteness, memory.
+void finishSummary(const HairModel& model, const HairState& state, double sim_s, double wall_s,
+                   RunSummary* s) {
+  s->steps = state.step_count;
+  s->sim_s = sim_s;
+  s->wall_s = wall_s;
+  s->repairs = state.warnings.total();
+  s->head_jumps = state.warnings.head_jumps;
+  s->nonfinite_values = state.warnings.nonfinite_values;
+  s->finite = state.warnings.nonfinite_repairs == 0;
+  for (const Vec3& p : state.position) s->finite = s->finite && p.allFinite();
+  s->max_speed_end_m_s =
+      s->max_speed_m_s.empty() ? maxSpeed(model, state) : s->max_speed_m_s.back();
+  s->rss_end_kb = procStatusKb("VmRSS:");
+  s->rss_peak_kb = procStatusKb("VmHWM:");
+}
+
+}  // namespace
+
+bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
+              std::string* why) {
+  const long rss_start_kb = procStatusKb("VmRSS:");
+  HairModel model;
+  if (!buildSceneModel(scene, &model, why)) return false;
+  std::vector<RunOptions::SaturationEvent> events;
+  if (!checkOptions(options, model, &events, why)) return false;
+  RunSummary s = startSummary(scene, options, rss_start_kb);
+  HairState state = initialState(scene, model);
+  const double frame = scene.run.frame_s;
+  const long frames = std::lround(scene.run.seconds / frame);
+  Obstacles obstacles;
+  obstacles.analytic = scene.obstacles;
+  if (!scene.obstacle_map.file.empty() &&
+      !buildObstacleField(scene, model, frames, &obstacles, &s.sdf_build_s, why))
+    return false;
+  s.strands = model.strandCount();
+  s.particles = model.particleCount();
+  s.substep_s = frame / substepCount(scene.solver, frame);
+  FrameMeasurements measurements(scene, model, obstacles, options, frames);
+  measureRigidMotion(scene, model, frames, &s);
+
+  // Frame f is done: measured, handed to on_frame, written every hair_stride frames.
+  auto frameDone = [&](long f, const Pose& pose) {
+    if (options.measure) measurements.record(f, f * frame, pose, &state, &s);
+    if (options.on_frame) options.on_frame(static_cast<int>(f), state);
+    if (options.hair_frames_dir.empty() || f % options.hair_stride != 0) return true;
+    if (!writeFrame(options.hair_frames_dir, static_cast<int>(f), model, state, why)) return false;
+    ++s.hair_frames_written;
+    return true;
+  };
+  if (!frameDone(0, headPose(scene.motion, 0.0))) return false;
+  StepClock clock(options.rtf_window_s, frame, frames);
   size_t next_event = 0;
   for (long f = 0; f < frames; ++f) {
     StepInputs in;
-    in.head_start = headPose(motion, f * frame);
-    in.head_end = headPose(motion, (f + 1) * frame);
-    for (; next_event < events.size() && events[next_event].time_s <= f * frame + 1e-9; ++next_event) {
+    in.head_start = headPose(scene.motion, f * frame);
+    in.head_end = headPose(scene.motion, (f + 1) * frame);
+    for (; next_event < events.size() && events[next_event].time_s <= f * frame + 1e-9;
+         ++next_event) {
       SaturationCommand c;
       c.root_value = events[next_event].root;
       c.tip_value = events[next_event].tip;
@@ -369,65 +532,12 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     StepStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     step(model, scene.solver, in, frame, &state, &stats);
-    const double step_wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    wall += step_wall;
-    window_wall += step_wall;
-    window_sim += frame;
-    if ((f + 1) * frame >= (s.realtime_factor_windows.size() + 1) * options.rtf_window_s - 1e-9 ||
-        f + 1 == frames) {
-      s.realtime_factor_windows.push_back(window_wall > 0.0 ? window_sim / window_wall : 0.0);
-      window_wall = window_sim = 0.0;
-    }
-    for (int k = 0; k < kStageCount; ++k) {
-      s.stage_particles[k] += stats.stage_particles[k];
-      s.stage_cpu_s[k] += stats.stage_cpu_s[k];
-    }
-    s.max_strain_before_limit = std::max(s.max_strain_before_limit, stats.max_strain_before_limit);
-    s.velocity_clamps += stats.velocity_clamps;
-    s.strain_limited_edges += stats.strain_limited_edges;
-    s.head_contacts += stats.head_contacts;
-    s.constraint_rounds += stats.constraint_rounds;
-    s.adhesion_active += stats.adhesion_active;
-    s.obstacle_contacts += stats.obstacle_contacts;
-    s.cohesion_particles += stats.cohesion_particles;
-    if (options.measure) record(f + 1, (f + 1) * frame, in.head_end);
-    if (options.on_frame) options.on_frame(static_cast<int>(f + 1), state);
-    if (!options.hair_frames_dir.empty() && (f + 1) % options.hair_stride == 0) {
-      if (!writeFrame(options.hair_frames_dir, static_cast<int>(f + 1), model, state, why))
-        return false;
-      ++s.hair_frames_written;
-    }
+    clock.add(f, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), &s);
+    addStepStats(stats, &s);
+    if (!frameDone(f + 1, in.head_end)) return false;
   }
-  // max_penetration_m covers the head and the obstacles alike.
-  s.max_penetration_m = std::max(s.max_penetration_m, s.max_obstacle_penetration_m);
-  s.max_penetration_after_first_step_m = std::max(s.max_head_penetration_after_first_step_m,
-                                                  s.max_obstacle_penetration_after_first_step_m);
-  s.jitter_m = jitter_count ? std::sqrt(jitter_sum / jitter_count) : 0.0;
-  s.clump_distance_m = clumpDistance(model, state.wet_position, state.saturation,
-                                     scene.run.clump_search_m, &metric_grid);
-  s.tangles = tangleCount(model, state.wet_position, scene.run.strand_radius_m, &metric_grid);
-  s.max_tangles = std::max(s.max_tangles, s.tangles);
-  s.tangles_sim = tangleCount(model, state.position, scene.run.strand_radius_m, &metric_grid);
-  const CurlShape curl = tipCurlShape(model, state.position);
-  s.curl_radius_tip_m = curl.radius_m;
-  s.curl_pitch_tip_m = curl.pitch_m;
-  double contact_sum = 0.0;
-  int touched = 0;
-  for (double c : contact_time)
-    if (c > 0.0) contact_sum += c, ++touched;
-  s.obstacle_contact_s = touched ? contact_sum / touched : 0.0;
-  s.steps = state.step_count;
-  s.sim_s = frames * frame;
-  s.wall_s = wall;
-  if (recorded_frames > 0) s.mean_strain /= static_cast<double>(recorded_frames);
-  s.repairs = state.warnings.total();
-  s.head_jumps = state.warnings.head_jumps;
-  s.nonfinite_values = state.warnings.nonfinite_values;
-  s.finite = state.warnings.nonfinite_repairs == 0;
-  for (const Vec3& p : state.position) s.finite = s.finite && p.allFinite();
-  s.max_speed_end_m_s = s.max_speed_m_s.empty() ? maxSpeed(model, state) : s.max_speed_m_s.back();
-  s.rss_end_kb = procStatusKb("VmRSS:");
-  s.rss_peak_kb = procStatusKb("VmHWM:");
+  measurements.finish(state, &s);
+  finishSummary(model, state, frames * frame, clock.wall(), &s);
   *out = std::move(s);
   return true;
 }
