@@ -26,8 +26,8 @@
 
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/solver.h"
-#include "wet_curly_hair/io/offline_run.h"
 #include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 namespace {
 

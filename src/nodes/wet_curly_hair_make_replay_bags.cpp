@@ -19,6 +19,7 @@
 #include <cstdlib>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "wet_curly_hair/SaturationChange.h"
 #include "wet_curly_hair/Strands.h"
@@ -39,10 +40,7 @@ const char* kUsage =
     "--sensitivity-m D also reruns with the head shifted by D m and prints how far each expected\n"
     "frame moves besides the shift (to choose the replay test's tolerance).\n";
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  using namespace wet_curly_hair;
+struct Options {
   std::string scene_path, out_dir = ".";
   std::string motion =
       "shake:freq_hz=1.0,amplitude_rad=0.5,start_s=0.3+"
@@ -50,81 +48,87 @@ int main(int argc, char** argv) {
   double rate = 50.0, seconds = 3.0, start_s = 100.0, lead_s = 0.2;
   int stride = 5;
   double sensitivity_m = 0.0;
+  bool help = false;
+};
+
+/// False (usage printed) on an unknown option or a missing value.
+bool parseOptions(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
+      o->help = true;
+      return true;
     }
     if (i + 1 >= argc) {
       std::fprintf(stderr, "%s", kUsage);
-      return 2;
+      return false;
     }
     const std::string v = argv[++i];
     if (a == "--scene")
-      scene_path = v;
+      o->scene_path = v;
     else if (a == "--out-dir")
-      out_dir = v;
+      o->out_dir = v;
     else if (a == "--rate")
-      rate = std::atof(v.c_str());
+      o->rate = std::atof(v.c_str());
     else if (a == "--seconds")
-      seconds = std::atof(v.c_str());
+      o->seconds = std::atof(v.c_str());
     else if (a == "--start-s")
-      start_s = std::atof(v.c_str());
+      o->start_s = std::atof(v.c_str());
     else if (a == "--motion")
-      motion = v;
+      o->motion = v;
     else if (a == "--stride")
-      stride = std::atoi(v.c_str());
+      o->stride = std::atoi(v.c_str());
     else if (a == "--tf-lead-s")
-      lead_s = std::atof(v.c_str());
+      o->lead_s = std::atof(v.c_str());
     else if (a == "--sensitivity-m")
-      sensitivity_m = std::atof(v.c_str());
+      o->sensitivity_m = std::atof(v.c_str());
     else {
       std::fprintf(stderr, "unknown option %s\n%s", a.c_str(), kUsage);
-      return 2;
+      return false;
     }
   }
-  io::SceneConfig scene;
-  std::string why;
-  if (scene_path.empty() || !io::loadSceneFile(scene_path, &scene, &why)) {
-    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: --scene: %s\n", why.c_str());
-    return 2;
-  }
-  HeadMotionPublisherConfig head;
-  if (!parseMotionChain(motion, &head.motions, &why)) {
-    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: %s\n", why.c_str());
-    return 2;
-  }
-  // The node's frame grid: frame_ns = round(1e9 / rate), boundaries at multiples of it.
-  const int64_t frame_ns = std::llround(1e9 / rate);
-  const double frame_s = frame_ns * 1e-9;
-  const int64_t t0_ns = (std::llround(start_s * 1e9) / frame_ns) * frame_ns;
-  const int frames = static_cast<int>(std::llround(seconds / frame_s));
-  auto stamp = [](int64_t ns) {
-    ros::Time t;
-    t.fromNSec(static_cast<uint64_t>(ns));
-    return t;
-  };
+  return true;
+}
 
-  rosbag::Bag input(out_dir + "/replay_input.bag", rosbag::bagmode::Write);
-  tf2::BufferCore buffer(ros::Duration(3600.0));
+ros::Time stamp(int64_t ns) {
+  ros::Time t;
+  t.fromNSec(static_cast<uint64_t>(ns));
+  return t;
+}
+
+/// The node's frame grid: frame_ns = round(1e9 / rate), boundaries at multiples of it.
+struct FrameGrid {
+  int64_t frame_ns, t0_ns, lead_ns;
+  double frame_s;
+  int frames;
+  explicit FrameGrid(const Options& o)
+      : frame_ns(std::llround(1e9 / o.rate)),
+        t0_ns((std::llround(o.start_s * 1e9) / frame_ns) * frame_ns),
+        lead_ns(std::llround(o.lead_s * 1e9)),
+        frame_s(frame_ns * 1e-9),
+        frames(static_cast<int>(std::llround(o.seconds / frame_s))) {}
+};
+
+/// The head transforms on /tf, written to the input bag and kept in `buffer` for the lookups.
+void writeHeadTransforms(const wet_curly_hair::HeadMotionPublisherConfig& head,
+                         const FrameGrid& grid, rosbag::Bag* input, tf2::BufferCore* buffer) {
   {
     // The bag starts 1 s before the first head transform with a transform of another frame:
     // when a looping replay jumps back, tf2_ros's listener clears its buffer on the first /tf
     // message it gets after seeing the new time, which may be the message after the one that
     // triggered the jump; that one must not be the first head transform.
     geometry_msgs::TransformStamped tr;
-    tr.header.stamp = stamp(t0_ns - 1000000000);
+    tr.header.stamp = stamp(grid.t0_ns - 1000000000);
     tr.header.frame_id = "world";
     tr.child_frame_id = "replay_bag_start";
     tr.transform.rotation.w = 1.0;
     tf2_msgs::TFMessage msg;
     msg.transforms.push_back(tr);
-    input.write("/tf", tr.header.stamp, msg);
+    input->write("/tf", tr.header.stamp, msg);
   }
-  for (int k = 0; k <= frames; ++k) {
-    const int64_t t_ns = t0_ns + k * frame_ns;
-    const Pose p = headMotionChainPose(head, k * frame_s);
+  for (int k = 0; k <= grid.frames; ++k) {
+    const int64_t t_ns = grid.t0_ns + k * grid.frame_ns;
+    const wet_curly_hair::Pose p = wet_curly_hair::headMotionChainPose(head, k * grid.frame_s);
     geometry_msgs::TransformStamped tr;
     tr.header.stamp = stamp(t_ns);
     tr.header.frame_id = "world";
@@ -138,49 +142,57 @@ int main(int argc, char** argv) {
     tr.transform.rotation.w = p.rotation.w();
     tf2_msgs::TFMessage msg;
     msg.transforms.push_back(tr);
-    input.write("/tf", stamp(t_ns - std::llround(lead_s * 1e9)), msg);
-    buffer.setTransform(tr, "replay");
+    input->write("/tf", stamp(t_ns - grid.lead_ns), msg);
+    buffer->setTransform(tr, "replay");
   }
-  // Two scheduled saturation changes: water rising to the tips, then a splash on some strands.
-  std::multimap<int64_t, SaturationCommand> changes;
-  {
-    SaturationChange m;
-    m.header.stamp = stamp(t0_ns + std::llround(1.0 * 1e9));
-    m.root_value = 0.0f;
-    m.tip_value = 1.0f;
-    input.write("/wet_curly_hair/saturation_changes", stamp(m.header.stamp.toNSec() - 500000000),
-                m);
-    SaturationCommand c;
-    saturationCommandFromMsg(m, &c, &why);
-    changes.emplace(m.header.stamp.toNSec(), c);
-    SaturationChange s;
-    s.header.stamp = stamp(t0_ns + std::llround(1.7 * 1e9));
-    s.strands = {0, 3, 5, 8, 13};
-    s.root_value = 0.4f;
-    s.tip_value = 0.2f;
-    s.add = true;
-    s.region_type = SaturationChange::REGION_SPHERE;
-    s.region_frame = SaturationChange::FRAME_HEAD;
-    s.region_center.z = -0.05;
-    s.region_radius = 0.15;
-    input.write("/wet_curly_hair/saturation_changes", stamp(s.header.stamp.toNSec() - 500000000),
-                s);
-    saturationCommandFromMsg(s, &c, &why);
-    changes.emplace(s.header.stamp.toNSec(), c);
-  }
-  input.close();
+}
 
-  // The node's computation, frame by frame.
-  HairModel model;
-  if (!io::buildSceneModel(scene, &model, &why)) {
-    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: %s\n", why.c_str());
-    return 1;
-  }
-  Obstacles obstacles;
-  obstacles.analytic = scene.obstacles;
-  const bool wet = scene.solver.cohesion.mode != "off";
-  // Runs the frames; `perturb_m` shifts every head position by that much along x (sensitivity).
-  auto simulate = [&](double perturb_m) {
+/// Two scheduled saturation changes: water rising to the tips, then a splash on some strands.
+/// Written to the input bag; returned as the commands the node applies, by stamp.
+std::multimap<int64_t, wet_curly_hair::SaturationCommand> writeSaturationChanges(
+    const FrameGrid& grid, rosbag::Bag* input) {
+  using wet_curly_hair::SaturationChange;
+  std::multimap<int64_t, wet_curly_hair::SaturationCommand> changes;
+  std::string why;
+  SaturationChange m;
+  m.header.stamp = stamp(grid.t0_ns + std::llround(1.0 * 1e9));
+  m.root_value = 0.0f;
+  m.tip_value = 1.0f;
+  input->write("/wet_curly_hair/saturation_changes", stamp(m.header.stamp.toNSec() - 500000000), m);
+  wet_curly_hair::SaturationCommand c;
+  wet_curly_hair::saturationCommandFromMsg(m, &c, &why);
+  changes.emplace(m.header.stamp.toNSec(), c);
+  SaturationChange s;
+  s.header.stamp = stamp(grid.t0_ns + std::llround(1.7 * 1e9));
+  s.strands = {0, 3, 5, 8, 13};
+  s.root_value = 0.4f;
+  s.tip_value = 0.2f;
+  s.add = true;
+  s.region_type = SaturationChange::REGION_SPHERE;
+  s.region_frame = SaturationChange::FRAME_HEAD;
+  s.region_center.z = -0.05;
+  s.region_radius = 0.15;
+  input->write("/wet_curly_hair/saturation_changes", stamp(s.header.stamp.toNSec() - 500000000), s);
+  wet_curly_hair::saturationCommandFromMsg(s, &c, &why);
+  changes.emplace(s.header.stamp.toNSec(), c);
+  return changes;
+}
+
+/// The node's computation, frame by frame, on the head poses of `buffer`.
+struct Simulation {
+  const wet_curly_hair::io::SceneConfig& scene;
+  const wet_curly_hair::HairModel& model;
+  const FrameGrid& grid;
+  const tf2::BufferCore& buffer;
+  const std::multimap<int64_t, wet_curly_hair::SaturationCommand>& changes;
+  int stride;
+
+  /// The expected frames; `perturb_m` shifts every head position by that much along x.
+  std::vector<wet_curly_hair::Strands> run(double perturb_m) const {
+    using namespace wet_curly_hair;
+    Obstacles obstacles;
+    obstacles.analytic = scene.obstacles;
+    const bool wet = scene.solver.cohesion.mode != "off";
     std::vector<Strands> out;
     std::multimap<int64_t, SaturationCommand> due = changes;
     auto lookup = [&](int64_t t_ns) {
@@ -189,7 +201,7 @@ int main(int argc, char** argv) {
       p.translation.x() += perturb_m;
       return p;
     };
-    Pose pose = lookup(t0_ns);
+    Pose pose = lookup(grid.t0_ns);
     HairState state = makeState(model, pose, Twist());
     if (scene.saturation.root != 0.0 || scene.saturation.tip != 0.0) {
       SaturationCommand init;
@@ -204,51 +216,90 @@ int main(int argc, char** argv) {
       out.emplace_back();
       stateToStrandsMsg(model, state, wet, h, step, 0, pose, &out.back());
     };
-    record(t0_ns, 0);
-    for (int k = 0; k < frames; ++k) {
-      const int64_t t_ns = t0_ns + k * frame_ns;
+    record(grid.t0_ns, 0);
+    for (int k = 0; k < grid.frames; ++k) {
+      const int64_t t_ns = grid.t0_ns + k * grid.frame_ns;
       while (!due.empty() && due.begin()->first <= t_ns) {
         applySaturation(model, due.begin()->second, pose, &state);
         due.erase(due.begin());
       }
       StepInputs in;
       in.head_start = pose;
-      in.head_end = lookup(t_ns + frame_ns);
+      in.head_end = lookup(t_ns + grid.frame_ns);
       in.obstacles = obstacles.empty() ? nullptr : &obstacles;
       StepStats stats;
-      step(model, scene.solver, in, frame_s, &state, &stats);
+      step(model, scene.solver, in, grid.frame_s, &state, &stats);
       pose = in.head_end;
       // Frames up to the last /tf message's record time: the loop restarts right after it.
       const bool replayed =
-          t_ns + frame_ns <= t0_ns + frames * frame_ns - 2 * std::llround(lead_s * 1e9);
-      if ((k + 1) % stride == 0 && replayed) record(t_ns + frame_ns, static_cast<uint64_t>(k + 1));
+          t_ns + grid.frame_ns <= grid.t0_ns + grid.frames * grid.frame_ns - 2 * grid.lead_ns;
+      if ((k + 1) % stride == 0 && replayed)
+        record(t_ns + grid.frame_ns, static_cast<uint64_t>(k + 1));
     }
     return out;
-  };
-  const std::vector<Strands> frames_out = simulate(0.0);
-  rosbag::Bag expected(out_dir + "/replay_expected.bag", rosbag::bagmode::Write);
-  for (const Strands& m : frames_out) expected.write("/wet_curly_hair/strands", m.header.stamp, m);
-  const int written = static_cast<int>(frames_out.size());
-  if (sensitivity_m > 0.0) {
-    // How far round-off-sized input differences carry: the tolerance of the replay test must
-    // hold them (a build for another CPU, e.g. without FMA, rounds differently).
-    const std::vector<Strands> shifted = simulate(sensitivity_m);
-    for (size_t f = 0; f < frames_out.size(); ++f) {
-      double d = 0.0;
-      for (size_t i = 0; i < frames_out[f].positions.size(); ++i) {
-        const double x = frames_out[f].positions[i] - (i % 3 == 0 ? sensitivity_m : 0.0);
-        d = std::max(d, std::abs(double(shifted[f].positions[i]) - x));
-      }
-      std::printf("sensitivity: head moved by %.3g m: frame %llu: largest particle change %.3g m\n",
-                  sensitivity_m, static_cast<unsigned long long>(frames_out[f].step), d);
-    }
   }
+};
+
+/// How far round-off-sized input differences carry: the tolerance of the replay test must hold
+/// them (a build for another CPU, e.g. without FMA, rounds differently).
+void printSensitivity(const Simulation& sim, const std::vector<wet_curly_hair::Strands>& frames,
+                      double sensitivity_m) {
+  const std::vector<wet_curly_hair::Strands> shifted = sim.run(sensitivity_m);
+  for (size_t f = 0; f < frames.size(); ++f) {
+    double d = 0.0;
+    for (size_t i = 0; i < frames[f].positions.size(); ++i) {
+      const double x = frames[f].positions[i] - (i % 3 == 0 ? sensitivity_m : 0.0);
+      d = std::max(d, std::abs(double(shifted[f].positions[i]) - x));
+    }
+    std::printf("sensitivity: head moved by %.3g m: frame %llu: largest particle change %.3g m\n",
+                sensitivity_m, static_cast<unsigned long long>(frames[f].step), d);
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace wet_curly_hair;
+  Options o;
+  if (!parseOptions(argc, argv, &o)) return 2;
+  if (o.help) {
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  io::SceneConfig scene;
+  std::string why;
+  if (o.scene_path.empty() || !io::loadSceneFile(o.scene_path, &scene, &why)) {
+    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: --scene: %s\n", why.c_str());
+    return 2;
+  }
+  HeadMotionPublisherConfig head;
+  if (!parseMotionChain(o.motion, &head.motions, &why)) {
+    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: %s\n", why.c_str());
+    return 2;
+  }
+  const FrameGrid grid(o);
+  rosbag::Bag input(o.out_dir + "/replay_input.bag", rosbag::bagmode::Write);
+  tf2::BufferCore buffer(ros::Duration(3600.0));
+  writeHeadTransforms(head, grid, &input, &buffer);
+  const std::multimap<int64_t, SaturationCommand> changes = writeSaturationChanges(grid, &input);
+  input.close();
+
+  HairModel model;
+  if (!io::buildSceneModel(scene, &model, &why)) {
+    std::fprintf(stderr, "wet_curly_hair_make_replay_bags: %s\n", why.c_str());
+    return 1;
+  }
+  const Simulation sim{scene, model, grid, buffer, changes, o.stride};
+  const std::vector<Strands> frames_out = sim.run(0.0);
+  rosbag::Bag expected(o.out_dir + "/replay_expected.bag", rosbag::bagmode::Write);
+  for (const Strands& m : frames_out) expected.write("/wet_curly_hair/strands", m.header.stamp, m);
+  if (o.sensitivity_m > 0.0) printSensitivity(sim, frames_out, o.sensitivity_m);
   expected.close();
   std::printf(
       "wrote %s/replay_input.bag (%d transforms, 2 saturation changes) and "
       "%s/replay_expected.bag (%d frames of %d strands, %d particles; frame %.4f s, "
       "first at t = %.3f s)\n",
-      out_dir.c_str(), frames + 1, out_dir.c_str(), written, model.strandCount(),
-      model.particleCount(), frame_s, t0_ns * 1e-9);
+      o.out_dir.c_str(), grid.frames + 1, o.out_dir.c_str(), static_cast<int>(frames_out.size()),
+      model.strandCount(), model.particleCount(), grid.frame_s, grid.t0_ns * 1e-9);
   return 0;
 }

@@ -1,5 +1,5 @@
 // wet_curly_hair_render: PNG pictures of `.hair` frames (one picture, or a contact sheet of
-// several frames sharing one camera). See io/render.h for how strands are drawn.
+// several frames sharing one camera). See viewer/render.h for how strands are drawn.
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -9,7 +9,7 @@
 
 #include "wet_curly_hair/core/groom.h"
 #include "wet_curly_hair/io/hair_file.h"
-#include "wet_curly_hair/io/render.h"
+#include "wet_curly_hair/viewer/render.h"
 
 namespace {
 

@@ -6,9 +6,11 @@
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <utility>
+#include <vector>
 
-#include "wet_curly_hair/io/offline_run.h"
 #include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 namespace {
 
@@ -22,10 +24,13 @@ const char* kUsage =
     "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
     "                          [--sdf-resolution M] [--integrator NAME] [--substep S]\n"
     "                          [--threads N] [--no-stage-timing]\n"
-    "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window S]\n"
+    "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window "
+    "S]\n"
     "integrators: explicit, backward_euler, midpoint, theta (--set solver.integrator.theta=T)\n"
-    "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, shake:freq_hz=F,amplitude_rad=A,\n"
-    "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, axis_x/y/z)\n";
+    "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, "
+    "shake:freq_hz=F,amplitude_rad=A,\n"
+    "         teleport:distance_m=D, linear:speed_m_s=V (all also take start_s, stop_s, "
+    "axis_x/y/z)\n";
 
 bool parseNumber(const std::string& flag, const std::string& text, double* v, std::string* why) {
   char* end = nullptr;
@@ -37,189 +42,261 @@ bool parseNumber(const std::string& flag, const std::string& text, double* v, st
   return true;
 }
 
+/// What the command line asks for, before it is applied to the scene.
+struct CommandLine {
+  wet_curly_hair::io::SceneConfig scene = wet_curly_hair::io::builtinScene();
+  wet_curly_hair::io::RunOptions options;
+  std::string json_path, motion_spec;
+  /// Every override is a dotted scene key and its YAML value text, applied on top of the scene.
+  std::vector<std::pair<std::string, std::string>> overrides;
+  std::vector<wet_curly_hair::AnalyticObstacle> extra_obstacles;
+  bool print_scene = false;
+  bool help = false;
+  bool seconds_given = false;
+  double seconds = 0.0;
+};
+
+/// The arguments one after the other; value() takes the one after the current flag.
+class Arguments {
+ public:
+  Arguments(int argc, char** argv) : argc_(argc), argv_(argv) {}
+  bool more() const { return i_ < argc_; }
+  const std::string& flag() const { return flag_; }
+  void advance() { flag_ = argv_[i_++]; }
+  bool value(std::string* v, std::string* why) {
+    if (i_ >= argc_) {
+      *why = flag_ + ": needs a value";
+      return false;
+    }
+    *v = argv_[i_++];
+    return true;
+  }
+  bool number(double* x, std::string* why) {
+    std::string v;
+    return value(&v, why) && parseNumber(flag_, v, x, why);
+  }
+
+ private:
+  int argc_;
+  char** argv_;
+  int i_ = 1;
+  std::string flag_;
+};
+
+/// The scene file (--scene) first, so that overrides apply on top of it whatever their order.
+bool loadSceneArgument(int argc, char** argv, CommandLine* cl, std::string* why) {
+  std::string scene_path;
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--scene" && i + 1 < argc) scene_path = argv[i + 1];
+  if (scene_path.empty()) return true;
+  wet_curly_hair::io::SceneConfig loaded;  // defaults, not the built-in scene, under a scene file
+  if (!wet_curly_hair::io::loadSceneFile(scene_path, &loaded, why)) return false;
+  cl->scene = loaded;
+  return true;
+}
+
+enum class Parsed { kOk, kBad, kUnknown };
+
+Parsed result(bool ok) { return ok ? Parsed::kOk : Parsed::kBad; }
+
+/// --saturation-at T,ROOT,TIP: a root-to-tip ramp set on every particle before the first frame
+/// starting at or after T.
+bool parseSaturationEvent(const std::string& v, wet_curly_hair::io::RunOptions* options,
+                          std::string* why) {
+  const size_t c1 = v.find(',');
+  const size_t c2 = c1 == std::string::npos ? c1 : v.find(',', c1 + 1);
+  if (c2 == std::string::npos) {
+    *why = "--saturation-at: '" + v + "' is not T,ROOT,TIP";
+    return false;
+  }
+  wet_curly_hair::io::RunOptions::SaturationEvent e;
+  if (!parseNumber("--saturation-at T", v.substr(0, c1), &e.time_s, why) ||
+      !parseNumber("--saturation-at ROOT", v.substr(c1 + 1, c2 - c1 - 1), &e.root, why) ||
+      !parseNumber("--saturation-at TIP", v.substr(c2 + 1), &e.tip, why))
+    return false;
+  options->saturation_events.push_back(e);
+  return true;
+}
+
+/// The options of the run itself and its outputs (not scene keys).
+Parsed parseRunFlag(Arguments* args, CommandLine* cl, std::string* why) {
+  const std::string& a = args->flag();
+  wet_curly_hair::io::RunOptions& options = cl->options;
+  std::string v;
+  double x = 0.0;
+  if (a == "--scene") return result(args->value(&v, why));
+  if (a == "--seconds") {
+    cl->seconds_given = true;
+    return result(args->number(&cl->seconds, why));
+  }
+  if (a == "--motion") return result(args->value(&cl->motion_spec, why));
+  if (a == "--json") return result(args->value(&cl->json_path, why));
+  if (a == "--hair-frames") return result(args->value(&options.hair_frames_dir, why));
+  if (a == "--hair-stride") {
+    const bool ok = args->number(&x, why);
+    options.hair_stride = static_cast<int>(x);
+    return result(ok);
+  }
+  if (a == "--saturation-at")
+    return result(args->value(&v, why) && parseSaturationEvent(v, &options, why));
+  if (a == "--series-stride") {
+    const bool ok = args->number(&x, why);
+    options.series_stride = static_cast<int>(x);
+    return result(ok);
+  }
+  if (a == "--rtf-window") {
+    const bool ok = args->number(&x, why);
+    options.rtf_window_s = x;
+    return result(ok);
+  }
+  if (a == "--no-stage-timing") {
+    options.stage_timing = false;
+    return Parsed::kOk;
+  }
+  if (a == "--print-scene") {
+    cl->print_scene = true;
+    return Parsed::kOk;
+  }
+  return Parsed::kUnknown;
+}
+
+/// The flags that are shorthands for scene keys: each becomes an override.
+Parsed parseSceneFlag(Arguments* args, CommandLine* cl, std::string* why) {
+  static const std::vector<std::pair<std::string, std::string>> kNumberKeys = {
+      {"--strands", "groom.strands"},
+      {"--particles", "groom.particles"},
+      {"--length", "groom.length_m"},
+      {"--curl-radius", "groom.curl_radius_m"},
+      {"--curl-pitch", "groom.curl_pitch_m"},
+      {"--seed", "groom.seed"},
+      {"--sdf-resolution", "obstacle_map.resolution_m"},
+      {"--substep", "solver.integrator.substep_s"},
+      {"--threads", "solver.integrator.threads"}};
+  static const std::vector<std::pair<std::string, std::string>> kTextKeys = {
+      {"--cohesion", "solver.cohesion.mode"}, {"--integrator", "solver.integrator.method"}};
+  const std::string& a = args->flag();
+  std::string v;
+  double x = 0.0;
+  for (const auto& [flag, key] : kNumberKeys) {
+    if (a != flag) continue;
+    if (!args->value(&v, why) || !parseNumber(a, v, &x, why)) return Parsed::kBad;
+    cl->overrides.emplace_back(key, v);
+    return Parsed::kOk;
+  }
+  for (const auto& [flag, key] : kTextKeys) {
+    if (a != flag) continue;
+    const bool ok = args->value(&v, why);
+    cl->overrides.emplace_back(key, v);
+    return result(ok);
+  }
+  if (a == "--set") {
+    if (!args->value(&v, why)) return Parsed::kBad;
+    const size_t eq = v.find('=');
+    if (eq == std::string::npos) {
+      *why = "--set: '" + v + "' is not NAME=VALUE";
+      return Parsed::kBad;
+    }
+    cl->overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    return Parsed::kOk;
+  }
+  if (a == "--saturation") {
+    if (!args->value(&v, why)) return Parsed::kBad;
+    const size_t comma = v.find(',');
+    if (comma == std::string::npos) {
+      *why = "--saturation: '" + v + "' is not ROOT,TIP";
+      return Parsed::kBad;
+    }
+    double root = 0.0, tip = 0.0;
+    const bool ok = parseNumber("--saturation ROOT", v.substr(0, comma), &root, why) &&
+                    parseNumber("--saturation TIP", v.substr(comma + 1), &tip, why);
+    cl->overrides.emplace_back("saturation.root", v.substr(0, comma));
+    cl->overrides.emplace_back("saturation.tip", v.substr(comma + 1));
+    return result(ok);
+  }
+  if (a == "--obstacle") {
+    wet_curly_hair::AnalyticObstacle o;
+    if (!args->value(&v, why) || !wet_curly_hair::AnalyticObstacle::parse(v, &o, why))
+      return Parsed::kBad;
+    cl->extra_obstacles.push_back(o);
+    return Parsed::kOk;
+  }
+  if (a == "--obstacle-map") {
+    const bool ok = args->value(&v, why);
+    cl->overrides.emplace_back("obstacle_map.file", "\"" + v + "\"");
+    return result(ok);
+  }
+  if (a == "--obstacle-map-offset") {
+    const bool ok = args->value(&v, why);
+    cl->overrides.emplace_back("obstacle_map.offset_m", "[" + v + "]");
+    return result(ok);
+  }
+  return Parsed::kUnknown;
+}
+
+/// Reads every flag; stops at --help (cl->help).
+bool parseCommandLine(int argc, char** argv, CommandLine* cl, std::string* why) {
+  if (!loadSceneArgument(argc, argv, cl, why)) return false;
+  Arguments args(argc, argv);
+  while (args.more()) {
+    args.advance();
+    if (args.flag() == "--help" || args.flag() == "-h") {
+      cl->help = true;
+      return true;
+    }
+    Parsed parsed = parseRunFlag(&args, cl, why);
+    if (parsed == Parsed::kUnknown) parsed = parseSceneFlag(&args, cl, why);
+    if (parsed == Parsed::kUnknown) {
+      *why = "unknown option '" + args.flag() + "'\n" + kUsage;
+      return false;
+    }
+    if (parsed == Parsed::kBad) return false;
+  }
+  return true;
+}
+
+/// The overrides, the motion and the extra obstacles, on top of the scene.
+bool applyToScene(CommandLine* cl, std::string* why) {
+  if (cl->seconds_given) cl->overrides.emplace_back("run.seconds", std::to_string(cl->seconds));
+  for (const auto& [name, value] : cl->overrides)
+    if (!wet_curly_hair::io::parseSceneYaml(wet_curly_hair::io::dottedToYaml(name, value),
+                                            &cl->scene, why))
+      return false;
+  if (!cl->motion_spec.empty() &&
+      !wet_curly_hair::parseMotionSpec(cl->motion_spec, &cl->scene.motion, why))
+    return false;
+  cl->scene.obstacles.insert(cl->scene.obstacles.end(), cl->extra_obstacles.begin(),
+                             cl->extra_obstacles.end());
+  return true;
+}
+
+int fail(const std::string& why) {
+  std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
+  return 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace wet_curly_hair;
-  io::SceneConfig scene = io::builtinScene();
-  io::RunOptions options;
-  std::string json_path, why, motion_spec;
-  // Every override is a dotted scene key and its YAML value text, applied on top of the scene.
-  std::vector<std::pair<std::string, std::string>> overrides;
-  bool print_scene = false;
-  std::vector<AnalyticObstacle> extra_obstacles;
-  bool seconds_given = false;
-  double seconds = 0.0;
-  std::string scene_path;
-  // First pass: the scene file, so that overrides apply on top of it whatever their order.
-  for (int i = 1; i < argc; ++i)
-    if (std::string(argv[i]) == "--scene" && i + 1 < argc) scene_path = argv[i + 1];
-  if (!scene_path.empty()) {
-    io::SceneConfig loaded;  // defaults, not the built-in scene, under a scene file
-    if (!io::loadSceneFile(scene_path, &loaded, &why)) {
-      std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
-      return 2;
-    }
-    scene = loaded;
+  CommandLine cl;
+  std::string why;
+  if (!parseCommandLine(argc, argv, &cl, &why)) return fail(why);
+  if (cl.help) {
+    std::fputs(kUsage, stdout);
+    return 0;
   }
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&](std::string* v) {
-      if (i + 1 >= argc) {
-        why = a + ": needs a value";
-        return false;
-      }
-      *v = argv[++i];
-      return true;
-    };
-    std::string v;
-    double x = 0.0;
-    auto groomOverride = [&](const char* name) {
-      if (!next(&v) || !parseNumber(a, v, &x, &why)) return false;
-      overrides.emplace_back(name, v);
-      return true;
-    };
-    bool ok = true;
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (a == "--scene") {
-      ok = next(&v);
-    } else if (a == "--seconds") {
-      ok = next(&v) && parseNumber(a, v, &seconds, &why);
-      seconds_given = true;
-    } else if (a == "--motion") {
-      ok = next(&motion_spec);
-    } else if (a == "--json") {
-      ok = next(&json_path);
-    } else if (a == "--hair-frames") {
-      ok = next(&options.hair_frames_dir);
-    } else if (a == "--hair-stride") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      options.hair_stride = static_cast<int>(x);
-    } else if (a == "--strands") {
-      ok = groomOverride("groom.strands");
-    } else if (a == "--particles") {
-      ok = groomOverride("groom.particles");
-    } else if (a == "--length") {
-      ok = groomOverride("groom.length_m");
-    } else if (a == "--curl-radius") {
-      ok = groomOverride("groom.curl_radius_m");
-    } else if (a == "--curl-pitch") {
-      ok = groomOverride("groom.curl_pitch_m");
-    } else if (a == "--seed") {
-      ok = groomOverride("groom.seed");
-    } else if (a == "--set") {
-      ok = next(&v);
-      const size_t eq = v.find('=');
-      if (ok && eq == std::string::npos) {
-        why = "--set: '" + v + "' is not NAME=VALUE";
-        ok = false;
-      } else if (ok) {
-        overrides.emplace_back(v.substr(0, eq), v.substr(eq + 1));
-      }
-    } else if (a == "--saturation") {
-      ok = next(&v);
-      const size_t comma = v.find(',');
-      double root = 0.0, tip = 0.0;
-      if (ok && comma == std::string::npos) {
-        why = "--saturation: '" + v + "' is not ROOT,TIP";
-        ok = false;
-      } else if (ok) {
-        ok = parseNumber("--saturation ROOT", v.substr(0, comma), &root, &why) &&
-             parseNumber("--saturation TIP", v.substr(comma + 1), &tip, &why);
-        overrides.emplace_back("saturation.root", v.substr(0, comma));
-        overrides.emplace_back("saturation.tip", v.substr(comma + 1));
-      }
-    } else if (a == "--cohesion") {
-      ok = next(&v);
-      overrides.emplace_back("solver.cohesion.mode", v);
-    } else if (a == "--obstacle") {
-      ok = next(&v);
-      AnalyticObstacle o;
-      if (ok) ok = AnalyticObstacle::parse(v, &o, &why);
-      if (ok) extra_obstacles.push_back(o);
-    } else if (a == "--obstacle-map") {
-      ok = next(&v);
-      overrides.emplace_back("obstacle_map.file", "\"" + v + "\"");
-    } else if (a == "--obstacle-map-offset") {
-      ok = next(&v);
-      overrides.emplace_back("obstacle_map.offset_m", "[" + v + "]");
-    } else if (a == "--sdf-resolution") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      overrides.emplace_back("obstacle_map.resolution_m", v);
-    } else if (a == "--integrator") {
-      ok = next(&v);
-      overrides.emplace_back("solver.integrator.method", v);
-    } else if (a == "--substep") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      overrides.emplace_back("solver.integrator.substep_s", v);
-    } else if (a == "--threads") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      overrides.emplace_back("solver.integrator.threads", v);
-    } else if (a == "--saturation-at") {
-      // A root-to-tip ramp set on every particle before the first frame starting at or after T.
-      ok = next(&v);
-      const size_t c1 = ok ? v.find(',') : std::string::npos;
-      const size_t c2 = c1 == std::string::npos ? c1 : v.find(',', c1 + 1);
-      io::RunOptions::SaturationEvent e;
-      if (ok && c2 == std::string::npos) {
-        why = "--saturation-at: '" + v + "' is not T,ROOT,TIP";
-        ok = false;
-      } else if (ok) {
-        ok = parseNumber("--saturation-at T", v.substr(0, c1), &e.time_s, &why) &&
-             parseNumber("--saturation-at ROOT", v.substr(c1 + 1, c2 - c1 - 1), &e.root, &why) &&
-             parseNumber("--saturation-at TIP", v.substr(c2 + 1), &e.tip, &why);
-        if (ok) options.saturation_events.push_back(e);
-      }
-    } else if (a == "--series-stride") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      options.series_stride = static_cast<int>(x);
-    } else if (a == "--rtf-window") {
-      ok = next(&v) && parseNumber(a, v, &x, &why);
-      options.rtf_window_s = x;
-    } else if (a == "--no-stage-timing") {
-      options.stage_timing = false;
-    } else if (a == "--print-scene") {
-      print_scene = true;
-    } else {
-      why = "unknown option '" + a + "'\n" + kUsage;
-      ok = false;
-    }
-    if (!ok) {
-      std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
-      return 2;
-    }
-  }
-  if (seconds_given) overrides.emplace_back("run.seconds", std::to_string(seconds));
-  for (const auto& [name, value] : overrides) {
-    if (!io::parseSceneYaml(io::dottedToYaml(name, value), &scene, &why)) {
-      std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
-      return 2;
-    }
-  }
-  if (!motion_spec.empty() && !parseMotionSpec(motion_spec, &scene.motion, &why)) {
-    std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
-    return 2;
-  }
-  scene.obstacles.insert(scene.obstacles.end(), extra_obstacles.begin(), extra_obstacles.end());
-  if (print_scene) {
-    std::fputs(io::sceneToYaml(scene).c_str(), stdout);
+  if (!applyToScene(&cl, &why)) return fail(why);
+  if (cl.print_scene) {
+    std::fputs(io::sceneToYaml(cl.scene).c_str(), stdout);
     return 0;
   }
   io::RunSummary summary;
-  if (!io::runScene(scene, options, &summary, &why)) {
-    std::fprintf(stderr, "wet_curly_hair_run: %s\n", why.c_str());
-    return 2;
-  }
+  if (!io::runScene(cl.scene, cl.options, &summary, &why)) return fail(why);
   const std::string json = summary.toJson();
-  if (!json_path.empty()) {
-    std::ofstream out(json_path);
+  if (!cl.json_path.empty()) {
+    std::ofstream out(cl.json_path);
     out << json << "\n";
-    if (!out) {
-      std::fprintf(stderr, "wet_curly_hair_run: cannot write %s\n", json_path.c_str());
-      return 2;
-    }
+    if (!out) return fail("cannot write " + cl.json_path);
   }
   std::cout << json << std::endl;
   return summary.finite ? 0 : 1;

@@ -1,6 +1,6 @@
 // PNG pictures of hair strands with Cairo. See render.h for the colour, shading and visibility
 // rules.
-#include "wet_curly_hair/io/render.h"
+#include "wet_curly_hair/viewer/render.h"
 
 #include <cairo.h>
 

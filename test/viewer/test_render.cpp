@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "wet_curly_hair/io/render.h"
+#include "wet_curly_hair/viewer/render.h"
 
 namespace wet_curly_hair {
 namespace io {

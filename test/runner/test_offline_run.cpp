@@ -7,7 +7,7 @@
 #include <sys/stat.h>
 
 #include "wet_curly_hair/io/hair_file.h"
-#include "wet_curly_hair/io/offline_run.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 using namespace wet_curly_hair;
 using namespace wet_curly_hair::io;

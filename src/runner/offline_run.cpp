@@ -1,0 +1,552 @@
+#include "wet_curly_hair/runner/offline_run.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+
+#include "wet_curly_hair/core/diagnostics.h"
+#include "wet_curly_hair/core/metrics.h"
+#include "wet_curly_hair/core/saturation.h"
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/io/hair_file.h"
+#include "wet_curly_hair/io/json.h"
+#include "wet_curly_hair/io/octomap_sdf.h"
+#include "wet_curly_hair/io/scene_setup.h"
+
+namespace wet_curly_hair {
+namespace io {
+
+std::string RunSummary::toJson() const {
+  JsonObject o;
+  o.add("strands", strands)
+      .add("strands_skipped", strands_skipped)
+      .add("particles", particles)
+      .add("steps", static_cast<unsigned long long>(steps))
+      .add("substep_s", substep_s)
+      .add("wall_s", wall_s)
+      .add("sim_s", sim_s)
+      .add("realtime_factor", wall_s > 0.0 ? sim_s / wall_s : 0.0)
+      .add("max_strain", max_strain)
+      .add("mean_strain", mean_strain)
+      .add("max_strain_before_limit", max_strain_before_limit)
+      .add("max_penetration_m", max_penetration_m)
+      .add("repairs", static_cast<unsigned long long>(repairs))
+      .add("head_jumps", static_cast<unsigned long long>(head_jumps))
+      .add("nonfinite_values", static_cast<unsigned long long>(nonfinite_values))
+      .add("finite", finite)
+      .add("max_speed_end_m_s", max_speed_end_m_s)
+      .add("velocity_clamps", static_cast<unsigned long long>(velocity_clamps))
+      .add("strain_limited_edges", static_cast<unsigned long long>(strain_limited_edges))
+      .add("head_contacts", static_cast<unsigned long long>(head_contacts))
+      .add("constraint_rounds", static_cast<unsigned long long>(constraint_rounds))
+      .add("hair_frames_written", hair_frames_written)
+      .add("clump_distance_m", clump_distance_m)
+      .add("jitter", jitter_m)
+      .add("tangles", tangles)
+      .add("max_tangles", max_tangles)
+      .add("tangles_sim", tangles_sim)
+      .add("curl_radius_tip_m", curl_radius_tip_m)
+      .add("curl_pitch_tip_m", curl_pitch_tip_m)
+      .add("obstacle_contact_s", obstacle_contact_s)
+      .add("max_strand_extension", max_strand_extension)
+      .add("adhesion_active", static_cast<unsigned long long>(adhesion_active))
+      .add("obstacle_contacts", static_cast<unsigned long long>(obstacle_contacts))
+      .add("cohesion_particles", static_cast<unsigned long long>(cohesion_particles))
+      .add("sdf_build_s", sdf_build_s)
+      .add("max_obstacle_penetration_m", max_obstacle_penetration_m)
+      .add("max_penetration_after_first_step_m", max_penetration_after_first_step_m)
+      .add("max_head_penetration_after_first_step_m", max_head_penetration_after_first_step_m)
+      .add("max_obstacle_penetration_after_first_step_m",
+           max_obstacle_penetration_after_first_step_m)
+      .add("rigid_kinetic_energy_max_j", rigid_kinetic_energy_max_j)
+      .add("rigid_potential_rise_max_j", rigid_potential_rise_max_j)
+      .add("head_peak_reach_speed_m_s", head_peak_reach_speed_m_s)
+      .add("hair_mass_kg", hair_mass_kg)
+      .add("max_strain_start", max_strain_start)
+      .add("max_strain_end", max_strain_end)
+      .add("mean_strain_start", mean_strain_start)
+      .add("mean_strain_end", mean_strain_end)
+      .add("max_strand_extension_start", max_strand_extension_start)
+      .add("max_strand_extension_end", max_strand_extension_end)
+      .add("mean_strand_extension_start", mean_strand_extension_start)
+      .add("mean_strand_extension_end", mean_strand_extension_end)
+      .add("saturation_changes", saturation_changes)
+      .add("rss_start_kb", static_cast<long long>(rss_start_kb))
+      .add("rss_end_kb", static_cast<long long>(rss_end_kb))
+      .add("rss_peak_kb", static_cast<long long>(rss_peak_kb))
+      .add("series_stride", series_stride)
+      .add("rtf_window_s", rtf_window_s)
+      .add("realtime_factor_windows", realtime_factor_windows)
+      .add("integrator", integrator)
+      .add("lane_layout", lane_layout)
+      .add("threads", threads)
+      .add("time_s", time_s)
+      .add("energy", energy)
+      .add("kinetic_energy", kinetic_energy)
+      .add("max_speed_m_s", max_speed_m_s);
+  JsonObject stages;
+  for (size_t k = 0; k < stage_particles.size() && k < stage_cpu_s.size(); ++k) {
+    JsonObject stage;
+    stage.add("particles", static_cast<unsigned long long>(stage_particles[k]))
+        .add("cpu_s", stage_cpu_s[k]);
+    stages.addObject(stageName(static_cast<int>(k)), stage);
+  }
+  o.addObject("stages", stages);
+  return o.str();
+}
+
+namespace {
+
+/// A "VmRSS:"-style line of /proc/self/status, kB (0 when unreadable, e.g. not Linux).
+long procStatusKb(const char* key) {
+  std::FILE* f = std::fopen("/proc/self/status", "r");
+  if (!f) return 0;
+  char line[256];
+  long kb = 0;
+  const size_t n = std::strlen(key);
+  while (std::fgets(line, sizeof(line), f)) {
+    if (std::strncmp(line, key, n) == 0) {
+      kb = std::strtol(line + n, nullptr, 10);
+      break;
+    }
+  }
+  std::fclose(f);
+  return kb;
+}
+
+double steadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+bool writeFrame(const std::string& dir, int frame, const HairModel& model, const HairState& state,
+                std::string* why) {
+  char name[64];
+  std::snprintf(name, sizeof(name), "/frame_%05d.hair", frame);
+  HairFileData data =
+      groomPositionsToHair(model.strand_offsets, state.wet_position, &state.saturation);
+  return writeHairFile(dir + name, data, why);
+}
+
+/// The options that runScene checks before it builds anything, and the saturation events in
+/// time order. The hair frames folder is created here.
+bool checkOptions(const RunOptions& options, const HairModel& model,
+                  std::vector<RunOptions::SaturationEvent>* events, std::string* why) {
+  if (options.series_stride < 1) {
+    if (why) *why = "--series-stride: must be at least 1";
+    return false;
+  }
+  if (!(options.rtf_window_s > 0.0)) {
+    if (why) *why = "--rtf-window: must be positive";
+    return false;
+  }
+  *events = options.saturation_events;
+  for (const RunOptions::SaturationEvent& e : *events) {
+    SaturationCommand c;
+    c.root_value = e.root;
+    c.tip_value = e.tip;
+    if (!std::isfinite(e.time_s) || e.time_s < 0.0) {
+      if (why) *why = "--saturation-at: time must be finite and >= 0";
+      return false;
+    }
+    std::string inner;
+    if (!validateSaturationCommand(c, model, &inner)) {
+      if (why) *why = "--saturation-at: " + inner;
+      return false;
+    }
+  }
+  std::stable_sort(events->begin(), events->end(),
+                   [](const RunOptions::SaturationEvent& a, const RunOptions::SaturationEvent& b) {
+                     return a.time_s < b.time_s;
+                   });
+  if (!options.hair_frames_dir.empty()) {
+    mkdir(options.hair_frames_dir.c_str(), 0755);
+    struct stat st;
+    if (stat(options.hair_frames_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+      if (why) *why = "--hair-frames: cannot create directory " + options.hair_frames_dir;
+      return false;
+    }
+    if (options.hair_stride < 1) {
+      if (why) *why = "--hair-stride: must be at least 1";
+      return false;
+    }
+  }
+  return true;
+}
+
+/// The summary's description of the run (what it is, not what it measured).
+RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, long rss_start_kb) {
+  RunSummary s;
+  s.rss_start_kb = rss_start_kb;
+  s.series_stride = options.series_stride;
+  s.rtf_window_s = options.rtf_window_s;
+  s.integrator = scene.solver.integrator.method;
+  s.lane_layout = scene.solver.integrator.strand_lanes
+                      ? std::string(scene.solver.integrator.resolvedLaneLayout())
+                      : std::string("off");
+  s.threads = scene.solver.integrator.threads;
+  s.stage_particles.assign(kStageCount, 0);
+  s.stage_cpu_s.assign(kStageCount, 0.0);
+  return s;
+}
+
+/// The groom on the head at t = 0, wet as the scene says.
+HairState initialState(const SceneConfig& scene, const HairModel& model) {
+  const HeadMotionConfig& motion = scene.motion;
+  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
+  if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
+    SaturationCommand wet;
+    wet.root_value = scene.saturation.root;
+    wet.tip_value = scene.saturation.tip;
+    applySaturation(model, wet, headPose(motion, 0.0), &state);
+  }
+  return state;
+}
+
+/// The signed distance field of the scene's OctoMap, over the box the hair can reach: every root
+/// over the scripted motion, grown by the longest strand (buildSdfFromOctree adds the margin).
+bool buildObstacleField(const SceneConfig& scene, const HairModel& model, long frames,
+                        Obstacles* obstacles, double* build_s, std::string* why) {
+  std::unique_ptr<octomap::OcTree> tree;
+  std::string inner;
+  if (!loadOctreeFile(scene.obstacle_map.file, &tree, &inner)) {
+    if (why) *why = "obstacle_map.file: " + inner;
+    return false;
+  }
+  double longest = 0.0;
+  for (double l : model.strand_length_m) longest = std::max(longest, l);
+  Eigen::AlignedBox3d reach;
+  for (long f = 0; f <= frames; ++f) {
+    const Pose pose = headPose(scene.motion, f * scene.run.frame_s);
+    for (int st = 0; st < model.strandCount(); ++st)
+      reach.extend(pose.apply(model.rest_position_head[model.strandBegin(st)]));
+  }
+  reach.min() -= Vec3::Constant(longest);
+  reach.max() += Vec3::Constant(longest);
+  SdfBuildConfig build;
+  build.resolution_m = scene.obstacle_map.resolution_m;
+  build.margin_m = scene.obstacle_map.margin_m;
+  build.unknown_is_occupied = scene.obstacle_map.unknown_is_occupied;
+  Pose map_in_world;
+  map_in_world.translation = scene.obstacle_map.offset_m;
+  auto sdf = std::make_shared<DenseSdf>();
+  SdfBuildStats stats;
+  if (!buildSdfFromOctree(*tree, map_in_world, reach, build, sdf.get(),
+                          &obstacles->field.field_in_world, &stats, &inner)) {
+    if (why) *why = "obstacle_map: " + inner;
+    return false;
+  }
+  obstacles->field.sdf = sdf;
+  *build_s = stats.total_s;
+  return true;
+}
+
+/// What the motion can put in: the groom carried rigidly by the head (RunSummary's
+/// rigid_kinetic_energy_max_j, rigid_potential_rise_max_j, head_peak_reach_speed_m_s and
+/// hair_mass_kg).
+void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long frames,
+                        RunSummary* s) {
+  const HeadMotionConfig& motion = scene.motion;
+  const double frame = scene.run.frame_s;
+  auto rigidPotential = [&](const Pose& pose) {
+    double u = 0.0;
+    for (int st = 0; st < model.strandCount(); ++st)
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+        u -= model.mass_kg[i] *
+             scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
+    return u;
+  };
+  for (int st = 0; st < model.strandCount(); ++st)
+    for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+      s->hair_mass_kg += model.mass_kg[i];
+  const double u0 = rigidPotential(headPose(motion, 0.0));
+  for (long f = 0; f < frames; ++f) {
+    const Pose a = headPose(motion, f * frame), b = headPose(motion, (f + 1) * frame);
+    double ke = 0.0;
+    for (int st = 0; st < model.strandCount(); ++st)
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+        ke +=
+            0.5 * model.mass_kg[i] *
+            ((b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame)
+                .squaredNorm();
+    s->rigid_kinetic_energy_max_j = std::max(s->rigid_kinetic_energy_max_j, ke);
+    // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
+    const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
+    const double w = std::abs(turn.angle()) / frame;
+    const double v_origin = (b.translation - a.translation).norm() / frame;
+    for (int st = 0; st < model.strandCount(); ++st) {
+      const double r =
+          (a.apply(model.rest_position_head[model.strandBegin(st)]) - a.translation).norm();
+      s->head_peak_reach_speed_m_s =
+          std::max(s->head_peak_reach_speed_m_s, v_origin + w * (r + model.strand_length_m[st]));
+    }
+    s->rigid_potential_rise_max_j = std::max(s->rigid_potential_rise_max_j, rigidPotential(b) - u0);
+  }
+}
+
+/// The per-frame measurements (energy, strain, penetration, extension, jitter, tangles) and the
+/// final-frame ones, with the buffers they need allocated once.
+class FrameMeasurements {
+ public:
+  FrameMeasurements(const SceneConfig& scene, const HairModel& model, const Obstacles& obstacles,
+                    const RunOptions& options, long frames)
+      : scene_(scene),
+        model_(model),
+        obstacles_(obstacles),
+        options_(options),
+        frames_(frames),
+        out_prev2_(model.particleCount()),
+        out_prev1_(model.particleCount()),
+        contact_time_(model.strandCount(), 0.0) {
+    metric_grid_.resize(model.particleCount(), model.strand_offsets);
+  }
+
+  /// Frame f (0: the initial state) at time t, the head at pose.
+  void record(long f, double t, const Pose& pose, HairState* state, RunSummary* s) {
+    if (f % options_.series_stride == 0 || f == frames_) {
+      const EnergyParts e = energy(model_, scene_.solver, pose, state);
+      s->time_s.push_back(t);
+      s->energy.push_back(e.total());
+      s->kinetic_energy.push_back(e.kinetic);
+      s->max_speed_m_s.push_back(maxSpeed(model_, *state));
+    }
+    ++recorded_frames_;
+    const StrainStats strain = edgeStrain(model_, *state);
+    s->max_strain = std::max(s->max_strain, strain.max);
+    s->mean_strain += strain.mean;
+    const double head_pen = maxHeadPenetration(model_, *state, pose);
+    s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
+    double obstacle_pen = 0.0, extension = 0.0, ext_sum = 0.0;
+    measureStrands(f, *state, &obstacle_pen, &extension, &ext_sum);
+    s->max_obstacle_penetration_m = std::max(s->max_obstacle_penetration_m, obstacle_pen);
+    s->max_strand_extension = std::max(s->max_strand_extension, extension);
+    if (f >= 1) {
+      s->max_head_penetration_after_first_step_m =
+          std::max(s->max_head_penetration_after_first_step_m, head_pen);
+      s->max_obstacle_penetration_after_first_step_m =
+          std::max(s->max_obstacle_penetration_after_first_step_m, obstacle_pen);
+    }
+    if (f == 0) {
+      s->max_strain_start = strain.max;
+      s->mean_strain_start = strain.mean;
+      s->max_strand_extension_start = extension;
+      s->mean_strand_extension_start = ext_sum / model_.strandCount();
+    }
+    s->max_strain_end = strain.max;
+    s->mean_strain_end = strain.mean;
+    s->max_strand_extension_end = extension;
+    s->mean_strand_extension_end = ext_sum / model_.strandCount();
+    measureJitter(f, *state, pose);
+    if (f % 10 == 0) {
+      s->max_tangles = std::max(
+          s->max_tangles,
+          tangleCount(model_, state->wet_position, scene_.run.strand_radius_m, &metric_grid_));
+    }
+  }
+
+  /// The measurements of the last frame and the means over the run.
+  void finish(const HairState& state, RunSummary* s) {
+    // max_penetration_m covers the head and the obstacles alike.
+    s->max_penetration_m = std::max(s->max_penetration_m, s->max_obstacle_penetration_m);
+    s->max_penetration_after_first_step_m = std::max(
+        s->max_head_penetration_after_first_step_m, s->max_obstacle_penetration_after_first_step_m);
+    s->jitter_m = jitter_count_ ? std::sqrt(jitter_sum_ / jitter_count_) : 0.0;
+    s->clump_distance_m = clumpDistance(model_, state.wet_position, state.saturation,
+                                        scene_.run.clump_search_m, &metric_grid_);
+    s->tangles = tangleCount(model_, state.wet_position, scene_.run.strand_radius_m, &metric_grid_);
+    s->max_tangles = std::max(s->max_tangles, s->tangles);
+    s->tangles_sim = tangleCount(model_, state.position, scene_.run.strand_radius_m, &metric_grid_);
+    const CurlShape curl = tipCurlShape(model_, state.position);
+    s->curl_radius_tip_m = curl.radius_m;
+    s->curl_pitch_tip_m = curl.pitch_m;
+    double contact_sum = 0.0;
+    int touched = 0;
+    for (double c : contact_time_)
+      if (c > 0.0) contact_sum += c, ++touched;
+    s->obstacle_contact_s = touched ? contact_sum / touched : 0.0;
+    if (recorded_frames_ > 0) s->mean_strain /= static_cast<double>(recorded_frames_);
+  }
+
+ private:
+  /// Per strand: arc length over rest length (largest and summed extension), the deepest
+  /// obstacle penetration, and the time within the adhesion band of an obstacle.
+  void measureStrands(long f, const HairState& state, double* obstacle_pen, double* extension,
+                      double* ext_sum) {
+    *extension = -std::numeric_limits<double>::infinity();
+    for (int st = 0; st < model_.strandCount(); ++st) {
+      const int b = model_.strandBegin(st), n = model_.strandSize(st);
+      double arc = 0.0;
+      bool touching = false;
+      for (int i = b; i < b + n; ++i) {
+        if (i + 1 < b + n) arc += (state.position[i + 1] - state.position[i]).norm();
+        if (!obstacles_.empty() && i > b) {
+          Vec3 normal;
+          const double dist = obstacles_.distance(state.position[i], &normal);
+          touching = touching || dist <= scene_.solver.adhesion.radius_m;
+          *obstacle_pen = std::max(*obstacle_pen, -dist);
+        }
+      }
+      *extension = std::max(*extension, arc / model_.strand_length_m[st] - 1.0);
+      *ext_sum += arc / model_.strand_length_m[st] - 1.0;
+      if (touching && f > 0) contact_time_[st] += scene_.run.frame_s;
+    }
+  }
+
+  /// Output positions in the head frame, three frames kept: RMS second difference.
+  void measureJitter(long f, const HairState& state, const Pose& pose) {
+    for (int i = 0; i < model_.particleCount(); ++i) {
+      const Vec3 x = pose.applyInverse(state.wet_position[i]);
+      if (f >= 2) {
+        jitter_sum_ += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
+        ++jitter_count_;
+      }
+      out_prev2_[i] = out_prev1_[i];
+      out_prev1_[i] = x;
+    }
+  }
+
+  const SceneConfig& scene_;
+  const HairModel& model_;
+  const Obstacles& obstacles_;
+  const RunOptions& options_;
+  const long frames_;
+  Vec3List out_prev2_, out_prev1_;
+  double jitter_sum_ = 0.0;
+  long jitter_count_ = 0;
+  std::vector<double> contact_time_;
+  NeighborGrid metric_grid_;
+  long recorded_frames_ = 0;
+};
+
+/// The solver's counters of one step, added to the summary.
+void addStepStats(const StepStats& stats, RunSummary* s) {
+  for (int k = 0; k < kStageCount; ++k) {
+    s->stage_particles[k] += stats.stage_particles[k];
+    s->stage_cpu_s[k] += stats.stage_cpu_s[k];
+  }
+  s->max_strain_before_limit = std::max(s->max_strain_before_limit, stats.max_strain_before_limit);
+  s->velocity_clamps += stats.velocity_clamps;
+  s->strain_limited_edges += stats.strain_limited_edges;
+  s->head_contacts += stats.head_contacts;
+  s->constraint_rounds += stats.constraint_rounds;
+  s->adhesion_active += stats.adhesion_active;
+  s->obstacle_contacts += stats.obstacle_contacts;
+  s->cohesion_particles += stats.cohesion_particles;
+}
+
+/// Wall time of the steps: the total and the real-time factor per rtf_window_s of simulated time.
+class StepClock {
+ public:
+  StepClock(double window_s, double frame_s, long frames)
+      : window_s_(window_s), frame_s_(frame_s), frames_(frames) {}
+  /// Frame f took step_wall seconds.
+  void add(long f, double step_wall, RunSummary* s) {
+    wall_ += step_wall;
+    window_wall_ += step_wall;
+    window_sim_ += frame_s_;
+    if ((f + 1) * frame_s_ >= (s->realtime_factor_windows.size() + 1) * window_s_ - 1e-9 ||
+        f + 1 == frames_) {
+      s->realtime_factor_windows.push_back(window_wall_ > 0.0 ? window_sim_ / window_wall_ : 0.0);
+      window_wall_ = window_sim_ = 0.0;
+    }
+  }
+  double wall() const { return wall_; }
+
+ private:
+  double window_s_, frame_s_;
+  long frames_;
+  double wall_ = 0.0, window_wall_ = 0.0, window_sim_ = 0.0;
+};
+
+/// The run's end state: steps, times, warnings, finiteness, memory.
+void finishSummary(const HairModel& model, const HairState& state, double sim_s, double wall_s,
+                   RunSummary* s) {
+  s->steps = state.step_count;
+  s->sim_s = sim_s;
+  s->wall_s = wall_s;
+  s->repairs = state.warnings.total();
+  s->head_jumps = state.warnings.head_jumps;
+  s->nonfinite_values = state.warnings.nonfinite_values;
+  s->finite = state.warnings.nonfinite_repairs == 0;
+  for (const Vec3& p : state.position) s->finite = s->finite && p.allFinite();
+  s->max_speed_end_m_s =
+      s->max_speed_m_s.empty() ? maxSpeed(model, state) : s->max_speed_m_s.back();
+  s->rss_end_kb = procStatusKb("VmRSS:");
+  s->rss_peak_kb = procStatusKb("VmHWM:");
+}
+
+}  // namespace
+
+bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
+              std::string* why) {
+  const long rss_start_kb = procStatusKb("VmRSS:");
+  HairModel model;
+  HairImportReport import_report;
+  if (!buildSceneModel(scene, &model, why, &import_report)) return false;
+  if (!import_report.skipped.empty())
+    std::fprintf(stderr, "groom_file.file: %s: %s\n", scene.groom_file.file.c_str(),
+                 import_report.warning().c_str());
+  std::vector<RunOptions::SaturationEvent> events;
+  if (!checkOptions(options, model, &events, why)) return false;
+  RunSummary s = startSummary(scene, options, rss_start_kb);
+  HairState state = initialState(scene, model);
+  const double frame = scene.run.frame_s;
+  const long frames = std::lround(scene.run.seconds / frame);
+  Obstacles obstacles;
+  obstacles.analytic = scene.obstacles;
+  if (!scene.obstacle_map.file.empty() &&
+      !buildObstacleField(scene, model, frames, &obstacles, &s.sdf_build_s, why))
+    return false;
+  s.strands = model.strandCount();
+  s.strands_skipped = static_cast<int>(import_report.skipped.size());
+  s.particles = model.particleCount();
+  s.substep_s = frame / substepCount(scene.solver, frame);
+  FrameMeasurements measurements(scene, model, obstacles, options, frames);
+  measureRigidMotion(scene, model, frames, &s);
+
+  // Frame f is done: measured, handed to on_frame, written every hair_stride frames.
+  auto frameDone = [&](long f, const Pose& pose) {
+    if (options.measure) measurements.record(f, f * frame, pose, &state, &s);
+    if (options.on_frame) options.on_frame(static_cast<int>(f), state);
+    if (options.hair_frames_dir.empty() || f % options.hair_stride != 0) return true;
+    if (!writeFrame(options.hair_frames_dir, static_cast<int>(f), model, state, why)) return false;
+    ++s.hair_frames_written;
+    return true;
+  };
+  if (!frameDone(0, headPose(scene.motion, 0.0))) return false;
+  StepClock clock(options.rtf_window_s, frame, frames);
+  size_t next_event = 0;
+  for (long f = 0; f < frames; ++f) {
+    StepInputs in;
+    in.head_start = headPose(scene.motion, f * frame);
+    in.head_end = headPose(scene.motion, (f + 1) * frame);
+    for (; next_event < events.size() && events[next_event].time_s <= f * frame + 1e-9;
+         ++next_event) {
+      SaturationCommand c;
+      c.root_value = events[next_event].root;
+      c.tip_value = events[next_event].tip;
+      applySaturation(model, c, in.head_start, &state);
+      ++s.saturation_changes;
+    }
+    in.obstacles = obstacles.empty() ? nullptr : &obstacles;
+    in.clock = options.stage_timing ? &steadySeconds : nullptr;
+    StepStats stats;
+    const auto t0 = std::chrono::steady_clock::now();
+    step(model, scene.solver, in, frame, &state, &stats);
+    clock.add(f, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), &s);
+    addStepStats(stats, &s);
+    if (!frameDone(f + 1, in.head_end)) return false;
+  }
+  measurements.finish(state, &s);
+  finishSummary(model, state, frames * frame, clock.wall(), &s);
+  *out = std::move(s);
+  return true;
+}
+
+}  // namespace io
+}  // namespace wet_curly_hair
