@@ -11,7 +11,10 @@ pass=0 fail=0
 check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((fail + 1)); fi; }
 
 "$bench" --quick --out "$out/b" > "$out/stdout" 2> "$out/stderr"
-check "runs and exits 0 (stderr: $(head -c 300 "$out/stderr"))" "[ $? -eq 0 ]"
+# The bench's own status, taken before anything else runs (a $(...) in check's arguments would
+# replace $? with its own).
+bench_rc=$?
+check "runs and exits 0 (got $bench_rc; stderr: $(head -c 300 "$out/stderr"))" "[ $bench_rc -eq 0 ]"
 check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv" \
   "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 3 ]"
 # Every quick setting of every scene: finite cost and error, stable, and the reference converged

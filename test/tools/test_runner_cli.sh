@@ -10,7 +10,8 @@ check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((f
 
 "$run" --seconds 0.2 --strands 5 --particles 16 --motion spin:rate_hz=1 --json "$out/a.json" \
   --hair-frames "$out/frames" --hair-stride 6 > "$out/stdout" 2> "$out/stderr"
-check "runs and exits 0" "[ $? -eq 0 ]"
+rc=$?
+check "runs and exits 0 (got $rc)" "[ $rc -eq 0 ]"
 check "writes the JSON" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/a.json')); sys.exit(0 if d['strands']==5 and d['particles']==80 and d['finite'] else 1)\""
 check "writes frames" "[ -f $out/frames/frame_00012.hair ]"
 for args in "--motion wobble" "--seconds abc" "--strands 0" "--set solver.nope=1" "--scene /no/such.yaml" "--bogus"; do

@@ -19,7 +19,8 @@ args=(--strands 12 --particles 24 --seconds 0.5 --motion spin:rate_hz=2,stop_s=0
 for threads in 1 2; do
   for k in a b; do
     "$run" "${args[@]}" --threads $threads --hair-frames "$out/t${threads}$k" > /dev/null 2> "$out/err"
-    check "runs with $threads thread(s) ($k)" "[ $? -eq 0 ]"
+    rc=$?
+    check "runs with $threads thread(s) ($k) (got $rc)" "[ $rc -eq 0 ]"
   done
   check "frames written ($threads threads)" "[ \$(ls $out/t${threads}a | wc -l) -eq 11 ]"
   check "two runs with $threads thread(s) are bit-identical" "same $out/t${threads}a $out/t${threads}b"
