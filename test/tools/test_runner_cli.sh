@@ -2,7 +2,8 @@
 # The runner's command line: documented options work, bad ones fail with a message and exit 2.
 set -u
 build=$1
-run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+run=$(tool_path wet_curly_hair_run "$build") || exit 1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 pass=0 fail=0

@@ -4,7 +4,8 @@
 # (IntegratorConfig::threads), 1 and 2 threads give the same frames too.
 set -u
 build=$1
-run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+run=$(tool_path wet_curly_hair_run "$build") || exit 1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 pass=0 fail=0
