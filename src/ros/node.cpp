@@ -246,6 +246,7 @@ void WetCurlyHairNode::onTimer(const ros::TimerEvent&) {
     tick_convert_s_ += wallSince(t0);
     t0 = Clock::now();
     markers_pub_.publish(markers_msg_);
+    ++markers_published_;
     tick_publish_s_ += wallSince(t0);
   }
   const ros::WallTime wall = ros::WallTime::now();
@@ -429,6 +430,7 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->substeps = substepCount(scene_.solver, frame_s_);
   s->substep_s = frame_s_ / std::max(1, s->substeps);
   s->skipped_frames = skipped_frames_;
+  s->markers_published = markers_published_;
   s->time_jumps_back = time_jumps_back_;
   const double frames = std::max(1, tick_frames_);
   s->step_time_s = tick_step_s_ / frames;

@@ -2,7 +2,9 @@
 #include <gtest/gtest.h>
 #include <ros/message_traits.h>
 
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include "wet_curly_hair/OctomapCompat.h"
 #include "wet_curly_hair/SaturationChange.h"
@@ -20,6 +22,14 @@ namespace {
 TEST(Messages, OctomapCompatHasTheMd5OfOctomapMsgsOctomap) {
   // octomap_msgs/Octomap: Header header, bool binary, string id, float64 resolution, int8[] data
   EXPECT_STREQ(ros::message_traits::md5sum<OctomapCompat>(), "9a45536b45c5e409cd49f04bb2d9999f");
+}
+
+using Rgb = std::array<float, 3>;
+
+Rgb colorOf(double saturation) {
+  Rgb c;
+  saturationColor(saturation, &c[0], &c[1], &c[2]);
+  return c;
 }
 
 HairModel smallModel() {
@@ -73,14 +83,45 @@ TEST(Conversions, MarkerIsOneLineListWithTwoColouredPointsPerEdge) {
   EXPECT_EQ(m.colors.size(), m.points.size());
   EXPECT_DOUBLE_EQ(m.points[0].x, state.position[0].x());
   EXPECT_DOUBLE_EQ(m.points[1].x, state.position[1].x());
-  float r, g, b;
-  saturationColor(1.0, &r, &g, &b);
-  EXPECT_FLOAT_EQ(m.colors[0].b, b);
-  saturationColor(std::nan(""), &r, &g, &b);  // non-finite shows as dry
-  float r0, g0, b0;
-  saturationColor(0.0, &r0, &g0, &b0);
-  EXPECT_EQ(r, r0);
-  EXPECT_GT(b, r - 1.0f);
+  // Every point carries the colour of its own particle's saturation.
+  state.saturation[1] = 0.0;
+  stateToMarkerArray(model, state, false, h, 0.002, &a);
+  const Rgb wet = colorOf(1.0), dry = colorOf(0.0);
+  const auto& c = a.markers[0].colors;
+  EXPECT_EQ(Rgb({c[0].r, c[0].g, c[0].b}), wet);  // edge 0-1: particle 0 wet, particle 1 dry
+  EXPECT_EQ(Rgb({c[1].r, c[1].g, c[1].b}), dry);
+  EXPECT_EQ(Rgb({c[2].r, c[2].g, c[2].b}), dry);  // edge 1-2 starts at particle 1
+  EXPECT_EQ(Rgb({c[3].r, c[3].g, c[3].b}), wet);
+  for (const auto& k : c) EXPECT_EQ(k.a, 1.0f);
+}
+
+TEST(Conversions, SaturationColourMapRunsFromTanToBlue) {
+  // The documented map (conversions.h): dry light tan, fully wet deep blue, a linear blend.
+  const Rgb dry = colorOf(0.0), wet = colorOf(1.0);
+  EXPECT_NEAR(dry[0], 0.85f, 1e-6f);
+  EXPECT_NEAR(dry[1], 0.68f, 1e-6f);
+  EXPECT_NEAR(dry[2], 0.45f, 1e-6f);
+  EXPECT_NEAR(wet[0], 0.10f, 1e-6f);
+  EXPECT_NEAR(wet[1], 0.30f, 1e-6f);
+  EXPECT_NEAR(wet[2], 0.85f, 1e-6f);
+  // Monotone: red and green fall, blue rises, strictly, at every step of 1/100; the blend is
+  // linear.
+  Rgb previous = dry;
+  for (int k = 1; k <= 100; ++k) {
+    const double s = k / 100.0;
+    const Rgb now = colorOf(s);
+    EXPECT_LT(now[0], previous[0]) << s;
+    EXPECT_LT(now[1], previous[1]) << s;
+    EXPECT_GT(now[2], previous[2]) << s;
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(now[i], dry[i] + (wet[i] - dry[i]) * s, 1e-6f) << s;
+    previous = now;
+  }
+  // Outside [0, 1] clamped; non-finite is dry, exactly.
+  EXPECT_EQ(colorOf(-0.5), dry);
+  EXPECT_EQ(colorOf(7.0), wet);
+  EXPECT_EQ(colorOf(std::nan("")), dry);
+  EXPECT_EQ(colorOf(std::numeric_limits<double>::infinity()), dry);
+  EXPECT_EQ(colorOf(-std::numeric_limits<double>::infinity()), dry);
 }
 
 TEST(Conversions, PoseFromTransformNormalisesAndRefusesDegenerate) {

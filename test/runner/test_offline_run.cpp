@@ -59,7 +59,8 @@ TEST(OfflineRun, RealHairFromAnotherTool) {
   // sintel_lite.hair: 228 strands, Blender units (scale 0.01 to metres), y up.
   const std::string path = WCH_SOURCE_DIR "/../shared/data/sintel_lite.hair";
   struct stat st;
-  if (stat(path.c_str(), &st) != 0) GTEST_SKIP() << path << " not present";
+  ASSERT_EQ(stat(path.c_str(), &st), 0)
+      << path << " not present (shared/data/ lies beside the package)";
   SceneConfig scene = builtinScene();
   scene.groom_file.file = path;
   scene.groom_file.scale = 0.01;

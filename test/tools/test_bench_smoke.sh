@@ -3,15 +3,20 @@
 # rot: a handful of settings on tiny scenes. No timing assertions: the machines are shared.
 set -u
 build=$1
-bench=$(find "$build" -name wet_curly_hair_bench -type f -perm -u+x | head -1)
-run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+bench=$(tool_path wet_curly_hair_bench "$build") || exit 1
+run=$(tool_path wet_curly_hair_run "$build") || exit 1
+require_command gnuplot gnuplot-nox
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 pass=0 fail=0
 check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((fail + 1)); fi; }
 
 "$bench" --quick --out "$out/b" > "$out/stdout" 2> "$out/stderr"
-check "runs and exits 0 (stderr: $(head -c 300 "$out/stderr"))" "[ $? -eq 0 ]"
+# The bench's own status, taken before anything else runs (a $(...) in check's arguments would
+# replace $? with its own).
+bench_rc=$?
+check "runs and exits 0 (got $bench_rc; stderr: $(head -c 300 "$out/stderr"))" "[ $bench_rc -eq 0 ]"
 check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv" \
   "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 3 ]"
 # Every quick setting of every scene: finite cost and error, stable, and the reference converged
@@ -61,18 +66,14 @@ sys.exit(0 if ok else 1)
 PY"
 check "scaling rows for 1 and 2 threads" \
   "[ \$(grep -c ',1,' $out/b/scaling.csv) -ge 2 ] && [ \$(grep -c ',2,' $out/b/scaling.csv) -ge 2 ]"
-if command -v gnuplot > /dev/null; then
-  check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ] && [ -s $out/b/lanes.png ]"
-fi
+check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scaling.png ] && [ -s $out/b/lanes.png ]"
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
   "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
-if command -v gnuplot > /dev/null; then
-  rm -f "$out/b/scaling.png"
-  "$bench" --replot --out "$out/b" > /dev/null 2>&1
-  check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"
-fi
+rm -f "$out/b/scaling.png"
+"$bench" --replot --out "$out/b" > /dev/null 2>&1
+check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"
 # A point of the chart reproduces by hand with the runner's flags.
 "$run" --seconds 0.2 --strands 6 --integrator theta --substep 0.0041666667 --threads 2 \
   --json "$out/p.json" > /dev/null 2>&1

@@ -2,7 +2,8 @@
 # The runner's command line: documented options work, bad ones fail with a message and exit 2.
 set -u
 build=$1
-run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+run=$(tool_path wet_curly_hair_run "$build") || exit 1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 pass=0 fail=0
@@ -10,7 +11,8 @@ check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((f
 
 "$run" --seconds 0.2 --strands 5 --particles 16 --motion spin:rate_hz=1 --json "$out/a.json" \
   --hair-frames "$out/frames" --hair-stride 6 > "$out/stdout" 2> "$out/stderr"
-check "runs and exits 0" "[ $? -eq 0 ]"
+rc=$?
+check "runs and exits 0 (got $rc)" "[ $rc -eq 0 ]"
 check "writes the JSON" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/a.json')); sys.exit(0 if d['strands']==5 and d['particles']==80 and d['strands_skipped']==0 and d['finite'] else 1)\""
 check "writes frames" "[ -f $out/frames/frame_00012.hair ]"
 # A groom file with strands that cannot be simulated: they are skipped, counted in the JSON and

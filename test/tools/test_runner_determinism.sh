@@ -4,7 +4,8 @@
 # (IntegratorConfig::threads), 1 and 2 threads give the same frames too.
 set -u
 build=$1
-run=$(find "$build" -name wet_curly_hair_run -type f -perm -u+x | head -1)
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+run=$(tool_path wet_curly_hair_run "$build") || exit 1
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
 pass=0 fail=0
@@ -19,7 +20,8 @@ args=(--strands 12 --particles 24 --seconds 0.5 --motion spin:rate_hz=2,stop_s=0
 for threads in 1 2; do
   for k in a b; do
     "$run" "${args[@]}" --threads $threads --hair-frames "$out/t${threads}$k" > /dev/null 2> "$out/err"
-    check "runs with $threads thread(s) ($k)" "[ $? -eq 0 ]"
+    rc=$?
+    check "runs with $threads thread(s) ($k) (got $rc)" "[ $rc -eq 0 ]"
   done
   check "frames written ($threads threads)" "[ \$(ls $out/t${threads}a | wc -l) -eq 11 ]"
   check "two runs with $threads thread(s) are bit-identical" "same $out/t${threads}a $out/t${threads}b"

@@ -146,6 +146,7 @@ class WetCurlyHairNode {
   uint32_t reset_count_ = 0;
   std::string last_reset_reason_;
   uint64_t skipped_frames_ = 0;
+  uint64_t markers_published_ = 0;  ///< ~markers messages published (only while subscribed).
   uint32_t time_jumps_back_ = 0;
   uint64_t tf_lookups_ = 0, tf_fallbacks_ = 0;
   std::multimap<int64_t, SaturationCommand> pending_changes_;  ///< by stamp, ns
