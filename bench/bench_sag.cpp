@@ -98,7 +98,8 @@ int main(int argc, char** argv) {
       names.push_back(kv.substr(0, eq));
       values.push_back(std::atof(kv.c_str() + eq + 1));
     } else {
-      std::fprintf(stderr, "usage: bench_sag [--scene FILE.yaml] [--seconds T] [--set name=value ...]\n");
+      std::fprintf(stderr,
+                   "usage: bench_sag [--scene FILE.yaml] [--seconds T] [--set name=value ...]\n");
       return 2;
     }
   }
@@ -115,8 +116,9 @@ int main(int argc, char** argv) {
   const Case cases[] = {{"dry, still head", false, false},
                         {"wet (scene's saturation), still head", true, false},
                         {"dry, nod 2 s then still", false, true}};
-  std::printf("| case | sag_free | t (s) | RMS dist / length | max dist / length | tip curl radius "
-              "(groom) mm | change | head contacts | repairs |\n|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| case | sag_free | t (s) | RMS dist / length | max dist / length | tip curl radius "
+      "(groom) mm | change | head contacts | repairs |\n|---|---|---|---|---|---|---|---|---|\n");
   for (const Case& c : cases) {
     io::SceneConfig scene = base;
     if (!c.wet) scene.saturation.root = scene.saturation.tip = 0.0;
@@ -137,8 +139,7 @@ int main(int argc, char** argv) {
       }
       std::printf("| %s | %s | %.3g | %.3g | %.3g | %.2f (%.2f) | %+.1f %% | %llu | %llu |\n",
                   c.name, on ? "on" : "off", t, r.rms, r.max, 1e3 * r.tip_radius_m,
-                  1e3 * r.groom_tip_radius_m,
-                  100.0 * (r.tip_radius_m / r.groom_tip_radius_m - 1.0),
+                  1e3 * r.groom_tip_radius_m, 100.0 * (r.tip_radius_m / r.groom_tip_radius_m - 1.0),
                   static_cast<unsigned long long>(r.head_contacts),
                   static_cast<unsigned long long>(r.repairs));
       std::fflush(stdout);

@@ -12,6 +12,8 @@
 //   wet_curly_hair_bench --out docs/bench            # the long form (tens of minutes)
 //   wet_curly_hair_bench --quick --out /tmp/bench    # a smoke run (seconds): no timing claims
 //   wet_curly_hair_bench --replot --out docs/bench   # redraw the charts from the CSV files
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -21,7 +23,6 @@
 #include <map>
 #include <sstream>
 #include <string>
-#include <sys/stat.h>
 #include <vector>
 
 #include "wet_curly_hair/core/head_motion.h"
@@ -74,19 +75,24 @@ struct Options {
 /// The benchmark scenes: the built-in groom (soft curls) under different loads.
 std::vector<BenchScene> benchScenes() {
   return {
-      {"drape", "dry curls settling under gravity on a still head",
+      {"drape",
+       "dry curls settling under gravity on a still head",
        {{"saturation.root", "0"}, {"saturation.tip", "0"}},
        "still"},
-      {"spin", "dry, head spinning at 1 rev/s about its vertical axis",
+      {"spin",
+       "dry, head spinning at 1 rev/s about its vertical axis",
        {{"saturation.root", "0"}, {"saturation.tip", "0"}},
        "spin:rate_hz=1"},
-      {"nod_shake", "dry, head shaking 0.35 rad at 2 Hz",
+      {"nod_shake",
+       "dry, head shaking 0.35 rad at 2 Hz",
        {{"saturation.root", "0"}, {"saturation.tip", "0"}},
        "shake:freq_hz=2,amplitude_rad=0.35"},
-      {"wet_clump", "fully wet (curl, stiffness, cohesion), nodding 0.35 rad at 1 Hz",
+      {"wet_clump",
+       "fully wet (curl, stiffness, cohesion), nodding 0.35 rad at 1 Hz",
        {{"saturation.root", "1"}, {"saturation.tip", "1"}},
        "nod:freq_hz=1,amplitude_rad=0.35"},
-      {"obstacle_slide", "half wet, head moving sideways at 0.3 m/s past a 5 cm sphere behind it",
+      {"obstacle_slide",
+       "half wet, head moving sideways at 0.3 m/s past a 5 cm sphere behind it",
        {{"saturation.root", "0.5"},
         {"saturation.tip", "0.5"},
         {"obstacles", "[\"sphere:x=-0.18,y=0.15,z=-0.05,r=0.05\"]"}},
@@ -153,8 +159,9 @@ struct Error {
   double max = 0.0;
 };
 
-Error frameError(const std::vector<wet_curly_hair::Vec3List>& a, const std::vector<wet_curly_hair::Vec3List>& b,
-                 double length_m, size_t horizon = SIZE_MAX) {
+Error frameError(const std::vector<wet_curly_hair::Vec3List>& a,
+                 const std::vector<wet_curly_hair::Vec3List>& b, double length_m,
+                 size_t horizon = SIZE_MAX) {
   Error e;
   double sum = 0.0;
   size_t count = 0;
@@ -238,8 +245,8 @@ void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& s
     for (int m = 0; m < 4; ++m) {
       gp << (m ? ", " : "") << "'" << dir << "/work_precision.csv' using "
          << "(strcol(1) eq '" << s << "' && strcol(2) eq '" << methods[m]
-         << "' && $9 == 1 ? $4 : NaN):5 with linespoints pt 7 lc rgb '" << colours[m]
-         << "' title '" << methods[m] << "', '" << dir << "/work_precision.csv' using "
+         << "' && $9 == 1 ? $4 : NaN):5 with linespoints pt 7 lc rgb '" << colours[m] << "' title '"
+         << methods[m] << "', '" << dir << "/work_precision.csv' using "
          << "(strcol(1) eq '" << s << "' && strcol(2) eq '" << methods[m]
          << "' && $9 == 0 ? $4 : NaN):5 with points pt 6 lc rgb '" << colours[m] << "' notitle";
     }
@@ -252,9 +259,9 @@ void plotWorkPrecision(const std::string& dir, const std::vector<std::string>& s
 void plotScaling(const std::string& dir) {
   // One data block per (integrator, threads) series, in strand order: the CSV interleaves the
   // series, and gnuplot breaks a line at every row a filter drops (points only, no lines).
-  const char* combos[][2] = {{"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},
-                             {"backward_euler", "2"}, {"theta", "1"}, {"theta", "2"},
-                             {"theta_per_strand", "1"}, {"theta_per_strand", "2"}};
+  const char* combos[][2] = {
+      {"explicit", "1"}, {"explicit", "2"}, {"backward_euler", "1"},   {"backward_euler", "2"},
+      {"theta", "1"},    {"theta", "2"},    {"theta_per_strand", "1"}, {"theta_per_strand", "2"}};
   std::map<std::string, std::vector<std::pair<int, std::string>>> series;
   {
     std::ifstream in(dir + "/scaling.csv");
@@ -345,23 +352,36 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--out") opt.out = value();
-    else if (a == "--quick") opt.quick = true;
-    else if (a == "--repeats") opt.repeats = std::atoi(value().c_str());
-    else if (a == "--strands") opt.strands = std::atoi(value().c_str());
-    else if (a == "--seconds") opt.seconds = std::atof(value().c_str());
-    else if (a == "--threads") opt.threads = std::atoi(value().c_str());
-    else if (a == "--scene") opt.only_scenes.push_back(value());
+    if (a == "--out")
+      opt.out = value();
+    else if (a == "--quick")
+      opt.quick = true;
+    else if (a == "--repeats")
+      opt.repeats = std::atoi(value().c_str());
+    else if (a == "--strands")
+      opt.strands = std::atoi(value().c_str());
+    else if (a == "--seconds")
+      opt.seconds = std::atof(value().c_str());
+    else if (a == "--threads")
+      opt.threads = std::atoi(value().c_str());
+    else if (a == "--scene")
+      opt.only_scenes.push_back(value());
     else if (a == "--scaling-series")
       opt.only_series.push_back(value());
-    else if (a == "--no-scaling") opt.scaling = false;
-    else if (a == "--no-work-precision") opt.work_precision = false;
-    else if (a == "--no-gating") opt.gating = false;
-    else if (a == "--no-cohesion") opt.cohesion = false;
-    else if (a == "--no-target") opt.target = false;
+    else if (a == "--no-scaling")
+      opt.scaling = false;
+    else if (a == "--no-work-precision")
+      opt.work_precision = false;
+    else if (a == "--no-gating")
+      opt.gating = false;
+    else if (a == "--no-cohesion")
+      opt.cohesion = false;
+    else if (a == "--no-target")
+      opt.target = false;
     else if (a == "--no-lanes")
       opt.lanes = false;
-    else if (a == "--replot") opt.replot = true;
+    else if (a == "--replot")
+      opt.replot = true;
     else {
       std::fprintf(stderr, "wet_curly_hair_bench: unknown option '%s'\n%s", a.c_str(), kUsage);
       return 2;
@@ -373,8 +393,9 @@ int main(int argc, char** argv) {
     opt.seconds = 0.2;
   }
   if (opt.repeats < 1 || opt.strands < 1 || !(opt.seconds > 0.0) || opt.threads < 1) {
-    std::fprintf(stderr, "wet_curly_hair_bench: --repeats, --strands, --seconds and --threads "
-                         "must be positive\n");
+    std::fprintf(stderr,
+                 "wet_curly_hair_bench: --repeats, --strands, --seconds and --threads "
+                 "must be positive\n");
     return 2;
   }
   if (opt.replot) {
@@ -409,9 +430,8 @@ int main(int argc, char** argv) {
     refcsv << "scene,reference_substep_s,check_substep_s,rms_difference,max_difference,"
               "reference_wall_s\n";
     for (const BenchScene& b : benchScenes()) {
-      if (!opt.only_scenes.empty() &&
-          std::find(opt.only_scenes.begin(), opt.only_scenes.end(), b.name) ==
-              opt.only_scenes.end())
+      if (!opt.only_scenes.empty() && std::find(opt.only_scenes.begin(), opt.only_scenes.end(),
+                                                b.name) == opt.only_scenes.end())
         continue;
       scene_names.push_back(b.name);
       io::SceneConfig scene;
@@ -429,8 +449,8 @@ int main(int argc, char** argv) {
       }
       const Error converged = frameError(ref.frames, chk.frames, length);
       refcsv << b.name << "," << fmt(reference.substep_s) << "," << fmt(check.substep_s) << ","
-             << fmt(converged.rms) << "," << fmt(converged.max) << ","
-             << fmt(ref.summary.wall_s) << "\n";
+             << fmt(converged.rms) << "," << fmt(converged.max) << "," << fmt(ref.summary.wall_s)
+             << "\n";
       std::printf("%-15s reference %.3g s vs %.3g s: RMS %.2e, max %.2e of strand length\n",
                   b.name.c_str(), reference.substep_s, check.substep_s, converged.rms,
                   converged.max);
@@ -469,16 +489,16 @@ int main(int argc, char** argv) {
     // Cost per particle-substep of the full wet model with an obstacle in reach, against the
     // strand count, 1 and 2 threads. Fewer simulated frames for the big counts: the figure is
     // per particle-substep.
-    std::vector<int> counts = opt.quick ? std::vector<int>{10, 40}
-                                        : std::vector<int>{100, 300, 1000, 3000, 10000};
-    const std::vector<Setting> settings =
-        opt.quick ? std::vector<Setting>{{"explicit", 2e-4},
-                                         {"theta", 1.0 / 240},
-                                         {"theta", 1.0 / 240, false}}
-                  : std::vector<Setting>{{"explicit", 2e-4},
-                                         {"backward_euler", 1.0 / 240},
-                                         {"theta", 1.0 / 240},
-                                         {"theta", 1.0 / 240, false}};
+    std::vector<int> counts =
+        opt.quick ? std::vector<int>{10, 40} : std::vector<int>{100, 300, 1000, 3000, 10000};
+    const std::vector<Setting> settings = opt.quick
+                                              ? std::vector<Setting>{{"explicit", 2e-4},
+                                                                     {"theta", 1.0 / 240},
+                                                                     {"theta", 1.0 / 240, false}}
+                                              : std::vector<Setting>{{"explicit", 2e-4},
+                                                                     {"backward_euler", 1.0 / 240},
+                                                                     {"theta", 1.0 / 240},
+                                                                     {"theta", 1.0 / 240, false}};
     std::ostringstream csv;
     csv << "integrator,strands,threads,substep_s,particles,wall_s_per_sim_s,"
            "ns_per_particle_substep,realtime_factor,runs,rounds,relative_to_1000\n";
@@ -575,11 +595,16 @@ int main(int argc, char** argv) {
     // grows with the neighbours within h): CPU per wet particle-frame, exact and lattice.
     std::ostringstream csv;
     csv << "strands,evaluation,us_per_wet_particle_frame,clump_distance_m,runs\n";
-    const std::vector<int> counts = opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000};
+    const std::vector<int> counts =
+        opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000};
     for (int count : counts) {
       for (const char* evaluation : {"exact", "grid"}) {
-        BenchScene b{"cohesion", "fully wet, still", {{"saturation.root", "1"}, {"saturation.tip", "1"},
-                     {"solver.cohesion.evaluation", std::string("\"") + evaluation + "\""}}, "still"};
+        BenchScene b{"cohesion",
+                     "fully wet, still",
+                     {{"saturation.root", "1"},
+                      {"saturation.tip", "1"},
+                      {"solver.cohesion.evaluation", std::string("\"") + evaluation + "\""}},
+                     "still"};
         io::SceneConfig scene;
         if (!makeScene(b, count, opt.quick ? 0.1 : 0.2, &scene, &why)) {
           std::fprintf(stderr, "wet_curly_hair_bench: cohesion: %s\n", why.c_str());
@@ -620,11 +645,10 @@ int main(int argc, char** argv) {
     const double seconds = opt.quick ? 0.1 : 1.0;
     const std::vector<Setting> candidates =
         opt.quick ? std::vector<Setting>{{"theta", 2e-3}, {"theta", 2e-3, false}}
-                  : std::vector<Setting>{{"theta", 1e-3},        {"theta", 2e-3},
-                                         {"midpoint", 1e-3},     {"midpoint", 2e-3},
-                                         {"backward_euler", 1e-3}, {"theta", 1.0 / 240},
-                                         {"midpoint", 1.0 / 240}, {"theta", 1e-3, false},
-                                         {"theta", 2e-3, false}};
+                  : std::vector<Setting>{
+                        {"theta", 1e-3},         {"theta", 2e-3},          {"midpoint", 1e-3},
+                        {"midpoint", 2e-3},      {"backward_euler", 1e-3}, {"theta", 1.0 / 240},
+                        {"midpoint", 1.0 / 240}, {"theta", 1e-3, false},   {"theta", 2e-3, false}};
     const std::vector<Setting> full_settings =
         opt.quick ? std::vector<Setting>{{"theta", 2e-3}}
                   : std::vector<Setting>{{"theta", 2e-3}, {"theta", 1e-3}};
@@ -807,7 +831,8 @@ int main(int argc, char** argv) {
     // obstacle out of the hair's reach, per integrator; ratios of medians measured in one run.
     std::ostringstream csv;
     csv << "integrator,variant,wall_s_per_sim_s,ratio_to_wet,ratio_to_no_obstacle,runs\n";
-    const BenchScene base{"gating", "nodding, built-in groom", {}, "nod:freq_hz=1,amplitude_rad=0.35"};
+    const BenchScene base{
+        "gating", "nodding, built-in groom", {}, "nod:freq_hz=1,amplitude_rad=0.35"};
     struct Variant {
       const char* name;
       const char* saturation;
@@ -817,10 +842,9 @@ int main(int argc, char** argv) {
                                 {"dry", "0", false},
                                 {"wet_far_obstacle", "1", true},
                                 {"dry_far_obstacle", "0", true}};
-    const std::vector<Setting> settings = opt.quick
-                                              ? std::vector<Setting>{{"theta", 1.0 / 240}}
-                                              : std::vector<Setting>{{"explicit", 2e-4},
-                                                                     {"theta", 1.0 / 240}};
+    const std::vector<Setting> settings =
+        opt.quick ? std::vector<Setting>{{"theta", 1.0 / 240}}
+                  : std::vector<Setting>{{"explicit", 2e-4}, {"theta", 1.0 / 240}};
     const int strands = opt.quick ? 6 : 100;
     // 3 s: 1 s of the dry implicit scene took 35 ms of wall time, too short to tell 5 % apart.
     const double seconds = opt.quick ? 0.1 : 3.0;
@@ -862,8 +886,8 @@ int main(int argc, char** argv) {
         const std::string no_obstacle = v.far_obstacle ? (wet ? "wet" : "dry") : name;
         const double cost = median(walls[name]);
         csv << setting.integrator << "," << name << "," << fmt(cost) << ","
-            << fmt(ratio(name, wet_twin)) << "," << fmt(ratio(name, no_obstacle)) << ","
-            << repeats << "\n";
+            << fmt(ratio(name, wet_twin)) << "," << fmt(ratio(name, no_obstacle)) << "," << repeats
+            << "\n";
         std::printf("gating %-15s %-17s %8.4f s/s  vs wet %.3f  vs no obstacle %.3f\n",
                     setting.integrator.c_str(), name.c_str(), cost, ratio(name, wet_twin),
                     ratio(name, no_obstacle));

@@ -39,8 +39,7 @@ bool sameData(const HairFileData& a, const HairFileData& b, bool cut_info) {
   if (!sameFloats(a.points, b.points) || !sameFloats(a.thickness, b.thickness) ||
       !sameFloats(a.transparency, b.transparency) || !sameFloats(a.colors, b.colors))
     return false;
-  if (a.write_segments_array != b.write_segments_array ||
-      a.default_segments != b.default_segments)
+  if (a.write_segments_array != b.write_segments_array || a.default_segments != b.default_segments)
     return false;
   if (!sameBits(a.default_thickness, b.default_thickness) ||
       !sameBits(a.default_transparency, b.default_transparency))

@@ -15,7 +15,7 @@ WCH_PACKAGES=(
   libtf2-ros-dev libtf2-eigen-dev libvisualization-msgs-dev
   liboctomap-dev libdynamicedt3d-dev
   libeigen3-dev libyaml-cpp-dev libcairo2-dev libgtest-dev libtbb-dev
-  gnuplot-nox clang libclang-rt-14-dev
+  gnuplot-nox clang libclang-rt-14-dev clang-format
 )
 # Only scripts/rviz_shot needs these (RViz under a virtual X server, and `import` for the PNG);
 # kept apart so that building and testing do not pull in RViz and Qt.

@@ -82,7 +82,8 @@ bool BendConfig::validate(const std::string& p, std::string* why) const {
       !finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why))
     return false;
   // Bending switched off (k_b = 0) is a valid, calm model; when it is on, the follower-like force
-  // needs enough smoothing and stiffness to settle (docs/physics.md §10.15; measured bound in docs/physics.md §2.6).
+  // needs enough smoothing and stiffness to settle (docs/physics.md §10.15; measured bound in
+  // docs/physics.md §2.6).
   if (stiffness_n_per_m > 0.0) {
     if (smoothing_edges < kMinBendSmoothingEdges) {
       if (why) {
@@ -106,8 +107,7 @@ bool CoreSpringConfig::validate(const std::string& p, std::string* why) const {
 bool CollisionConfig::validate(const std::string& p, std::string* why) const {
   if (constraint_rounds < 0 || constraint_rounds > 100) {
     if (why)
-      *why = p + "constraint_rounds: " + std::to_string(constraint_rounds) +
-             " is outside [0, 100]";
+      *why = p + "constraint_rounds: " + std::to_string(constraint_rounds) + " is outside [0, 100]";
     return false;
   }
   return finiteInRange(p + "offset_m", offset_m, 0.0, 0.05, why) &&
@@ -135,7 +135,6 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
   }
   return true;
 }
-
 
 bool CurlConfig::validate(const std::string& p, std::string* why) const {
   return oneOf(p + "mode", mode, {"spring", "literal"}, why) &&
@@ -176,19 +175,21 @@ bool ObstacleCollisionConfig::validate(const std::string& p, std::string* why) c
 }
 
 bool SolverConfig::validate(const std::string& p, std::string* why) const {
-  const bool parts_ok = stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
-         core.validate(p + "core.", why) && collision.validate(p + "collision.", why) &&
-         integrator.validate(p + "integrator.", why) && curl.validate(p + "curl.", why) &&
-         cohesion.validate(p + "cohesion.", why) && adhesion.validate(p + "adhesion.", why) &&
-         stiffness.validate(p + "stiffness.", why) && obstacle.validate(p + "obstacle.", why) &&
-         finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
-         finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
+  const bool parts_ok =
+      stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
+      core.validate(p + "core.", why) && collision.validate(p + "collision.", why) &&
+      integrator.validate(p + "integrator.", why) && curl.validate(p + "curl.", why) &&
+      cohesion.validate(p + "cohesion.", why) && adhesion.validate(p + "adhesion.", why) &&
+      stiffness.validate(p + "stiffness.", why) && obstacle.validate(p + "obstacle.", why) &&
+      finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
+      finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
   if (!parts_ok) return false;
   // sag_free: the bending spring is the only one that carries weight across an edge
   // (sag_free.cpp).
   if (sag_free && gravity_m_s2.squaredNorm() > 0.0 && !(bend.stiffness_n_per_m > 0.0)) {
     if (why)
-      *why = p + "sag_free: needs " + p + "bend.stiffness_n_per_m > 0 under gravity (the bending "
+      *why = p + "sag_free: needs " + p +
+             "bend.stiffness_n_per_m > 0 under gravity (the bending "
              "spring carries the weight across the edges)";
     return false;
   }

@@ -75,7 +75,8 @@ bool GroomConfig::validate(const std::string& p, std::string* why) const {
     return false;
   }
   if (curl_radius_m > 0.0 && curl_pitch_m <= 0.0) {
-    if (why) *why = p + "curl_pitch_m: must be > 0 when curl_radius_m > 0 (a flat curl lies on the scalp)";
+    if (why)
+      *why = p + "curl_pitch_m: must be > 0 when curl_radius_m > 0 (a flat curl lies on the scalp)";
     return false;
   }
   return true;

@@ -9,9 +9,10 @@ namespace wet_curly_hair {
 
 bool HeadMotionConfig::validate(const std::string& p, std::string* why) const {
   using namespace config_check;
-  if (type != "still" && type != "spin" && type != "nod" && type != "shake" &&
-      type != "teleport" && type != "linear") {
-    if (why) *why = p + "type: '" + type + "' is not one of still, spin, nod, shake, teleport, linear";
+  if (type != "still" && type != "spin" && type != "nod" && type != "shake" && type != "teleport" &&
+      type != "linear") {
+    if (why)
+      *why = p + "type: '" + type + "' is not one of still, spin, nod, shake, teleport, linear";
     return false;
   }
   if (!finiteInRange(p + "rate_hz", rate_hz, -100.0, 100.0, why) ||
@@ -54,16 +55,26 @@ bool parseMotionSpec(const std::string& spec, HeadMotionConfig* config, std::str
         if (why) *why = "motion." + key + ": '" + text + "' is not a number";
         return false;
       }
-      if (key == "rate_hz") c.rate_hz = value;
-      else if (key == "freq_hz") c.freq_hz = value;
-      else if (key == "amplitude_rad") c.amplitude_rad = value;
-      else if (key == "distance_m") c.distance_m = value;
-      else if (key == "speed_m_s") c.speed_m_s = value;
-      else if (key == "start_s") c.start_s = value;
-      else if (key == "stop_s") c.stop_s = value;
-      else if (key == "axis_x") c.axis.x() = value;
-      else if (key == "axis_y") c.axis.y() = value;
-      else if (key == "axis_z") c.axis.z() = value;
+      if (key == "rate_hz")
+        c.rate_hz = value;
+      else if (key == "freq_hz")
+        c.freq_hz = value;
+      else if (key == "amplitude_rad")
+        c.amplitude_rad = value;
+      else if (key == "distance_m")
+        c.distance_m = value;
+      else if (key == "speed_m_s")
+        c.speed_m_s = value;
+      else if (key == "start_s")
+        c.start_s = value;
+      else if (key == "stop_s")
+        c.stop_s = value;
+      else if (key == "axis_x")
+        c.axis.x() = value;
+      else if (key == "axis_y")
+        c.axis.y() = value;
+      else if (key == "axis_z")
+        c.axis.z() = value;
       else {
         if (why) *why = "motion." + key + ": unknown key for motion '" + c.type + "'";
         return false;

@@ -19,7 +19,8 @@ bool HeadShape::validate(const std::string& p, std::string* why) const {
     return false;
   for (size_t i = 0; i < capsules.size(); ++i) {
     const std::string c = p + "capsules[" + std::to_string(i) + "].";
-    if (!finiteVec(c + "a_m", capsules[i].a_m, why) || !finiteVec(c + "b_m", capsules[i].b_m, why) ||
+    if (!finiteVec(c + "a_m", capsules[i].a_m, why) ||
+        !finiteVec(c + "b_m", capsules[i].b_m, why) ||
         !positive(c + "radius_m", capsules[i].radius_m, why))
       return false;
   }
@@ -38,9 +39,10 @@ bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& he
     if (ratio < kMinBendDampingRatio) {
       if (why) {
         *why = "solver.bend.damping_ns_per_m: " + std::to_string(config.bend.damping_ns_per_m) +
-               " N s/m is " + std::to_string(ratio) + " of critical for k_b = " +
-               std::to_string(kb) + " N/m and " + std::to_string(particle_mass_kg) +
-               " kg particles; below " + std::to_string(kMinBendDampingRatio) +
+               " N s/m is " + std::to_string(ratio) +
+               " of critical for k_b = " + std::to_string(kb) + " N/m and " +
+               std::to_string(particle_mass_kg) + " kg particles; below " +
+               std::to_string(kMinBendDampingRatio) +
                " the bending spring flutters (raise the damping or lower k_b)";
       }
       return false;
@@ -145,7 +147,8 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
     }
     // The strand's own helix (A9), turned about its axis to the phase that best matches the rest
     // pose once aligned (the twist about the root-to-tip axis is otherwise undetermined, A8).
-    const Vec3List helix = makeHelix(size, l, config.curl.helix_radius_m, config.curl.helix_pitch_m);
+    const Vec3List helix =
+        makeHelix(size, l, config.curl.helix_radius_m, config.curl.helix_pitch_m);
     const Vec3 rest_axis = p[size - 1] - p[0];
     Vec3 axis = (helix[size - 1] - helix[0]).normalized();
     double phase = 0.0;

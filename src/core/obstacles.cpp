@@ -52,7 +52,8 @@ bool AnalyticObstacle::validate(const std::string& p, std::string* why) const {
   using namespace config_check;
   if (!finiteVec(p + "center_m", center_m, why)) return false;
   switch (shape) {
-    case Shape::kSphere: return positive(p + "radius_m", radius_m, why);
+    case Shape::kSphere:
+      return positive(p + "radius_m", radius_m, why);
     case Shape::kBox:
       if (!orientation.coeffs().allFinite() || std::abs(orientation.norm() - 1.0) > 1e-6) {
         if (why) *why = p + "orientation: not a unit quaternion";
@@ -75,9 +76,12 @@ bool AnalyticObstacle::parse(const std::string& spec, AnalyticObstacle* out, std
   AnalyticObstacle o;
   const size_t colon = spec.find(':');
   const std::string kind = spec.substr(0, colon);
-  if (kind == "sphere") o.shape = Shape::kSphere;
-  else if (kind == "box") o.shape = Shape::kBox;
-  else if (kind == "plane") o.shape = Shape::kPlane;
+  if (kind == "sphere")
+    o.shape = Shape::kSphere;
+  else if (kind == "box")
+    o.shape = Shape::kBox;
+  else if (kind == "plane")
+    o.shape = Shape::kPlane;
   else {
     if (why) *why = "obstacle: '" + kind + "' is not sphere, box or plane";
     return false;

@@ -20,11 +20,11 @@ namespace wet_curly_hair {
 // (transported along the alpha_b-smoothed groom from the root frame) are all fixed; only the
 // rest parameters L_i, t^loc_i, c_i are free, and f_i is affine in each.
 //
-// Which rest parameters (docs/physics.md §8, "solve rest parameters, not positions"; its Iben analogue
-// of Hsu et al.'s local step): the part of W_i ALONG the edge goes to the stretch spring, the
-// only spring whose force follows the edge under any deformation, as a real hanging hair carries
-// its weight (L_i := |e_i| - (W_i . e^_i) / k_s, §8's first bullet); the part ACROSS the edge
-// goes to the bending target, the only spring that acts across it (t^loc_i := F_i^T (e_i -
+// Which rest parameters (docs/physics.md §8, "solve rest parameters, not positions"; its Iben
+// analogue of Hsu et al.'s local step): the part of W_i ALONG the edge goes to the stretch spring,
+// the only spring whose force follows the edge under any deformation, as a real hanging hair
+// carries its weight (L_i := |e_i| - (W_i . e^_i) / k_s, §8's first bullet); the part ACROSS the
+// edge goes to the bending target, the only spring that acts across it (t^loc_i := F_i^T (e_i -
 // W_perp / k_b), §8's second bullet, solved at once since f is linear in the target). The core
 // springs keep their groom rest lengths (zero force at the groom): they act along the smoothed
 // b_i, not along or across e_i, and they are what holds the curl's radius, so they keep holding
@@ -36,8 +36,7 @@ namespace wet_curly_hair {
 // Head contacts at the rest pose are ignored (not solved for): the strand carries its whole
 // weight, which is also an equilibrium when hair lies on the scalp (the collision projection is
 // inactive outside the offset and then sees zero pressing force).
-void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model,
-                 SagFreeStats* stats) {
+void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model, SagFreeStats* stats) {
   SagFreeStats local;
   HairModel& m = *model;
   const double ks = config.stretch.stiffness_n_per_m;

@@ -64,8 +64,9 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
   for (int s = 0; s < model.strandCount(); ++s) {
     const int begin = model.strandBegin(s);
     const Vec3 axis = state->position[begin + model.strandSize(s) - 1] - state->position[begin];
-    state->curl_rotation[s] =
-        axis.norm() > 1e-12 ? minimalRotation(model.helix_axis[s], axis.normalized()) : Mat3::Identity();
+    state->curl_rotation[s] = axis.norm() > 1e-12
+                                  ? minimalRotation(model.helix_axis[s], axis.normalized())
+                                  : Mat3::Identity();
   }
   state->last_good_position = state->position;
   state->last_good_velocity = state->velocity;

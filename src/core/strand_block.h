@@ -107,8 +107,7 @@ struct Block {
 
   Block(const HairModel& m, const SolverConfig& c, const StepInputs& in, const SolverPlan& p,
         HairState* st, StrandScratch* scr, StepStats* stt, double step_h)
-      : model(m), config(c), inputs(in), plan(p), state(st), scratch(scr), stats(stt),
-        h(step_h) {}
+      : model(m), config(c), inputs(in), plan(p), state(st), scratch(scr), stats(stt), h(step_h) {}
 
   bool realLane(int l) const { return l < active; }
   uint64_t countActive(const Mask& m) const {
@@ -181,8 +180,7 @@ void gatherBlock(Block<S>& blk) {
       setLaneValue(&a.sigma[i], l, state.saturation[k]);
       setLaneValue(&a.m[i], l, model.mass_kg[k]);
       setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
-      setLaneValue(&a.factor[i], l,
-                   blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
+      setLaneValue(&a.factor[i], l, blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
       setLaneValue(&a.obstacle_slack[i], l, -1.0);
       if (i < blk.edges) {
         setLaneValue(&a.rest[i], l, model.rest_edge_m[k]);
@@ -213,7 +211,8 @@ void scatterBlock(Block<S>& blk) {
       Vec3* p = &state->position[begin];
       const double* rest = &blk.model.rest_edge_m[begin];
       for (int i = 0; i < blk.edges; ++i)
-        p[i + 1] += limitEdgeLength(p[i], p[i + 1], (1.0 + blk.config.stretch.strain_limit) * rest[i]);
+        p[i + 1] +=
+            limitEdgeLength(p[i], p[i + 1], (1.0 + blk.config.stretch.strain_limit) * rest[i]);
     }
   }
 }
@@ -287,8 +286,8 @@ void curlForces(Block<S>& blk) {
   for (int i = 0; i < blk.edges; ++i) {
     const S s = splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
     const auto on = blk.curl_mask && (s > splat<S>(0.0));
-    const V3<S> u = curlForce(rot * a.helix_edge[i], a.p[i + 1] - a.p[i], w * s,
-                              blk.plan.curl_spring);
+    const V3<S> u =
+        curlForce(rot * a.helix_edge[i], a.p[i + 1] - a.p[i], w * s, blk.plan.curl_spring);
     const V3<S> masked = select(on, u, zero3<S>());
     a.f[i + 1] += masked;
     a.f[i] -= masked;
@@ -384,8 +383,8 @@ void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
   // built-in scene reached strain 13.6 before limiting with it, 0.035 without).
   const S rate = splat<S>(blk.config.stretch.strain_rate_limit_per_substep / blk.h);
   for (int i = 0; i < blk.edges; ++i) {
-    const V3<S> vnew = clampAxialRelativeVelocity(a.p[i + 1] - a.p[i], a.v[i], a.v[i + 1],
-                                                  rate * a.rest[i]);
+    const V3<S> vnew =
+        clampAxialRelativeVelocity(a.p[i + 1] - a.p[i], a.v[i], a.v[i + 1], rate * a.rest[i]);
     const auto changed =
         (vnew.x != a.v[i + 1].x) || (vnew.y != a.v[i + 1].y) || (vnew.z != a.v[i + 1].z);
     if (!anyLane(changed)) continue;
@@ -412,7 +411,8 @@ void solveBlockTridiagonal(Block<S>& blk) {
     a.pivot_inverse[i] = inverse(pivot);
   }
   a.v[n - 1] = a.pivot_inverse[n - 1] * a.rhs[n - 1];
-  for (int i = n - 2; i >= 1; --i) a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
+  for (int i = n - 2; i >= 1; --i)
+    a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
 }
 
 /// 4-5 implicit: a theta method on the velocity u that moves the particles,
@@ -582,12 +582,13 @@ void limitStrainEdges(const S* rest, double strain_limit, bool inelastic, double
 /// again until nothing is inside or nothing moves (or the rounds run out); the strain limit runs
 /// last, so the edge bound holds exactly. In double, on the lane's copy. Returns the rounds run.
 template <typename S>
-uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l,
-                               uint64_t touched, uint64_t projected) {
+uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l, uint64_t touched,
+                               uint64_t projected) {
   BlockArrays<S>& a = blk.a;
   const SolverConfig& config = blk.config;
   const int n = blk.n;
-  for (int i = 0; i < n; ++i) a.p_one[i] = toV3(lane(a.p[i], l)), a.v_one[i] = toV3(lane(a.v[i], l));
+  for (int i = 0; i < n; ++i)
+    a.p_one[i] = toV3(lane(a.p[i], l)), a.v_one[i] = toV3(lane(a.v[i], l));
   const double* rest = &blk.model.rest_edge_m[blk.begin[l]];
   const bool obstacles = blk.obstacle_on[l] && config.obstacle.enabled;
   auto distance = [&](int i, int, Vec3* normal) {
@@ -598,8 +599,8 @@ uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l
        ++round) {
     touched = 0;
     if (config.collision.head_enabled)
-      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p_one,
-                           a.v_one, n, &touched);
+      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p_one, a.v_one,
+                           n, &touched);
     if (obstacles)
       collideObstacleParticles<double>(config.obstacle, &obstacles, distance, nullptr, nullptr,
                                        a.p_one, a.v_one, n, &touched);
@@ -631,12 +632,13 @@ void collideAndLimit(Block<S>& blk, const SubstepMotion& motion, StageLaps& laps
   }
   if (blk.any_obstacle) {
     bool on[Block<S>::kWidth];
-    for (int l = 0; l < Block<S>::kWidth; ++l) on[l] = blk.obstacle_on[l] && config.obstacle.enabled;
+    for (int l = 0; l < Block<S>::kWidth; ++l)
+      on[l] = blk.obstacle_on[l] && config.obstacle.enabled;
     uint64_t obstacle_touched[Block<S>::kWidth] = {};
     auto distance = [&](int i, int l, Vec3* normal) { return obstacleDistance(blk, i, l, normal); };
-    const uint64_t evaluated = collideObstacleParticles<S>(
-        config.obstacle, on, distance, a.obstacle_anchor, a.obstacle_slack, a.p, a.v, n,
-        obstacle_touched);
+    const uint64_t evaluated =
+        collideObstacleParticles<S>(config.obstacle, on, distance, a.obstacle_anchor,
+                                    a.obstacle_slack, a.p, a.v, n, obstacle_touched);
     // Obstacle positions are world coordinates: the lambda reads at p + origin, and
     // collideParticle moved the lane's relative position by the same projection.
     for (int l = 0; l < blk.active; ++l) {

@@ -41,7 +41,8 @@ bool SceneConfig::validate(std::string* why) const {
     bool axis_ok = false;
     for (const char* a : kAxes) axis_ok = axis_ok || groom_file.up_axis == a;
     if (!axis_ok) {
-      if (why) *why = "groom_file.up_axis: '" + groom_file.up_axis + "' is not one of x, y, z, -x, -y, -z";
+      if (why)
+        *why = "groom_file.up_axis: '" + groom_file.up_axis + "' is not one of x, y, z, -x, -y, -z";
       return false;
     }
     if (groom_file.resample_particles != 0 &&
@@ -107,7 +108,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("groom.scalp_half_angle_deg", &g.scalp_half_angle_deg, "scalp patch half angle, deg", true);
   addVec(&t, "groom.scalp_axis", &g.scalp_axis, "scalp patch centre direction (head frame)", true);
   GroomFileConfig& gf = s->groom_file;
-  str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)", true);
+  str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)",
+      true);
   d("groom_file.scale", &gf.scale, "metres per file unit", true);
   str("groom_file.up_axis", &gf.up_axis, "the file's up axis: x, y, z, -x, -y, -z", true);
   addVec(&t, "groom_file.offset_m", &gf.offset_m, "offset after scaling, head frame, m", true);
@@ -124,7 +126,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.stretch.strain_rate_limit_per_substep", &c.stretch.strain_rate_limit_per_substep,
     "velocity clamp: largest strain change per substep", false);
   str("solver.stretch.limit_velocity", &c.stretch.limit_velocity,
-    "after a strain-limit projection: displacement (Selle) or inelastic", false);
+      "after a strain-limit projection: displacement (Selle) or inelastic", false);
   d("solver.bend.stiffness_n_per_m", &c.bend.stiffness_n_per_m, "k_b, N/m (eq. 4)", false);
   d("solver.bend.damping_ns_per_m", &c.bend.damping_ns_per_m, "c_b, N s/m (eq. 4)", false);
   d("solver.bend.smoothing_edges", &c.bend.smoothing_edges, "alpha_b in mean edge lengths", true);
@@ -156,8 +158,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   i("solver.integrator.damping_passes", &c.integrator.damping_passes, "damping passes", false);
   addVec(&t, "solver.gravity_m_s2", &c.gravity_m_s2, "gravity, world frame, m/s^2", false);
   b("solver.sag_free", &c.sag_free,
-    "solve rest lengths and bend targets so the groom hangs still (docs/physics.md §8)",
-    true);
+    "solve rest lengths and bend targets so the groom hangs still (docs/physics.md §8)", true);
   b("solver.curl.enabled", &c.curl.enabled, "curl exaggeration on wet particles (eqs. 6-9)", false);
   str("solver.curl.mode", &c.curl.mode, "spring (A10 restoring) or literal (eq. 9 couple)", false);
   d("solver.curl.weight_n_per_m", &c.curl.weight_n_per_m, "w_h, N/m", false);
@@ -210,9 +211,12 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("run.frame_s", &s->run.frame_s, "output frame, s", false);
   d("run.strand_radius_m", &s->run.strand_radius_m, "strand radius for the tangle count, m", false);
   d("run.clump_search_m", &s->run.clump_search_m, "clump distance search radius, m", false);
-  str("obstacle_map.file", &s->obstacle_map.file, "OctoMap .bt/.ot obstacle file (empty: none)", false);
-  addVec(&t, "obstacle_map.offset_m", &s->obstacle_map.offset_m, "map origin in the world, m", false);
-  d("obstacle_map.resolution_m", &s->obstacle_map.resolution_m, "signed distance field voxel, m", false);
+  str("obstacle_map.file", &s->obstacle_map.file, "OctoMap .bt/.ot obstacle file (empty: none)",
+      false);
+  addVec(&t, "obstacle_map.offset_m", &s->obstacle_map.offset_m, "map origin in the world, m",
+         false);
+  d("obstacle_map.resolution_m", &s->obstacle_map.resolution_m, "signed distance field voxel, m",
+    false);
   d("obstacle_map.margin_m", &s->obstacle_map.margin_m, "reach box margin, m", false);
   b("obstacle_map.unknown_is_occupied", &s->obstacle_map.unknown_is_occupied,
     "treat unknown space as occupied", false);
@@ -223,10 +227,14 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
 
 double ParamRef::getAsDouble() const {
   switch (type) {
-    case Type::kDouble: return *static_cast<double*>(field);
-    case Type::kInt: return *static_cast<int*>(field);
-    case Type::kBool: return *static_cast<bool*>(field) ? 1.0 : 0.0;
-    case Type::kString: return std::nan("");
+    case Type::kDouble:
+      return *static_cast<double*>(field);
+    case Type::kInt:
+      return *static_cast<int*>(field);
+    case Type::kBool:
+      return *static_cast<bool*>(field) ? 1.0 : 0.0;
+    case Type::kString:
+      return std::nan("");
   }
   return std::nan("");
 }
@@ -266,10 +274,18 @@ std::string yamlQuoted(const std::string& s) {
 std::string ParamRef::valueString() const {
   std::ostringstream s;
   switch (type) {
-    case Type::kDouble: s << shortest(*static_cast<double*>(field)); break;
-    case Type::kInt: s << *static_cast<int*>(field); break;
-    case Type::kBool: s << (*static_cast<bool*>(field) ? "true" : "false"); break;
-    case Type::kString: s << *static_cast<std::string*>(field); break;
+    case Type::kDouble:
+      s << shortest(*static_cast<double*>(field));
+      break;
+    case Type::kInt:
+      s << *static_cast<int*>(field);
+      break;
+    case Type::kBool:
+      s << (*static_cast<bool*>(field) ? "true" : "false");
+      break;
+    case Type::kString:
+      s << *static_cast<std::string*>(field);
+      break;
   }
   return s.str();
 }
@@ -280,7 +296,9 @@ bool ParamRef::setFromDouble(double v, std::string* why) const {
     return false;
   }
   switch (type) {
-    case Type::kDouble: *static_cast<double*>(field) = v; return true;
+    case Type::kDouble:
+      *static_cast<double*>(field) = v;
+      return true;
     case Type::kInt:
       if (v != std::floor(v) || std::abs(v) > 2e9) {
         if (why) *why = name + ": " + std::to_string(v) + " is not an integer";
@@ -305,8 +323,9 @@ bool ParamRef::setFromDouble(double v, std::string* why) const {
 bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
                      SceneConfig* scene, bool* needs_rebuild, std::string* why) {
   if (names.size() != values.size()) {
-    if (why) *why = "names and values differ in length (" + std::to_string(names.size()) + " vs " +
-                    std::to_string(values.size()) + ")";
+    if (why)
+      *why = "names and values differ in length (" + std::to_string(names.size()) + " vs " +
+             std::to_string(values.size()) + ")";
     return false;
   }
   SceneConfig copy = *scene;
@@ -417,7 +436,8 @@ struct YamlWalker {
     std::vector<AnalyticObstacle> list;
     for (size_t k = 0; k < node.size(); ++k) {
       const std::string p = key + "[" + std::to_string(k) + "]";
-      if (!node[k].IsScalar()) return fail(p + ": must be a spec string like sphere:x=0,y=0,z=0,r=0.1");
+      if (!node[k].IsScalar())
+        return fail(p + ": must be a spec string like sphere:x=0,y=0,z=0,r=0.1");
       AnalyticObstacle o;
       std::string inner;
       if (!AnalyticObstacle::parse(node[k].Scalar(), &o, &inner)) return fail(p + ": " + inner);
@@ -533,7 +553,8 @@ std::string sceneToYaml(const SceneConfig& scene_in) {
     out << std::string(2 * (parts.size() - 1), ' ') << parts.back() << ": " << value << "  # "
         << r.doc << "\n";
     if (r.name == "head.radii_m.z" && !scene.head.capsules.empty()) {
-      out << "  capsules:  # neck, ears: points within radius_m of segment a_m-b_m (head frame, m)\n";
+      out << "  capsules:  # neck, ears: points within radius_m of segment a_m-b_m (head frame, "
+             "m)\n";
       for (const CapsuleShape& c : scene.head.capsules) {
         out << "    - {name: " << yamlQuoted(c.name) << ", a_m: [" << shortest(c.a_m.x()) << ", "
             << shortest(c.a_m.y()) << ", " << shortest(c.a_m.z()) << "], b_m: ["

@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
   char* end = nullptr;
   const double res = std::strtod(argv[2], &end);
   if (*end != '\0' || !(res > 1e-4) || !(res < 1.0)) {
-    std::fprintf(stderr, "wet_curly_hair_make_octomap: resolution '%s' must be in (1e-4, 1) m\n", argv[2]);
+    std::fprintf(stderr, "wet_curly_hair_make_octomap: resolution '%s' must be in (1e-4, 1) m\n",
+                 argv[2]);
     return 2;
   }
   std::vector<AnalyticObstacle> shapes;

@@ -38,7 +38,8 @@ TEST(Cohesion, DryHairIsUntouched) {
   Fixture f(0.005);
   CohesionConfig c;
   EXPECT_EQ(computeDisplayCohesion(f.model, c, &f.state), 0);
-  for (int i = 0; i < f.model.particleCount(); ++i) EXPECT_EQ(f.state.wet_position[i], f.state.position[i]);
+  for (int i = 0; i < f.model.particleCount(); ++i)
+    EXPECT_EQ(f.state.wet_position[i], f.state.position[i]);
 }
 
 TEST(Cohesion, WetNeighboursClumpIsolatedParticlesStay) {
@@ -83,7 +84,8 @@ TEST(Cohesion, IsTranslationInvariant) {
   const Vec3 shift(12.3, -4.5, 6.7);
   for (Vec3& x : b.state.position) x += shift;
   for (Fixture* f : {&a, &b})
-    for (int i = 0; i < f->model.particleCount(); ++i) f->state.saturation[i] = 0.3 + 0.05 * (i % 7);
+    for (int i = 0; i < f->model.particleCount(); ++i)
+      f->state.saturation[i] = 0.3 + 0.05 * (i % 7);
   CohesionConfig c;
   computeDisplayCohesion(a.model, c, &a.state);
   computeDisplayCohesion(b.model, c, &b.state);
@@ -119,7 +121,7 @@ struct WetScene {
 };
 
 struct Discrepancy {
-  double rms_m = 0.0, max_m = 0.0;          ///< |p^w_grid - p^w_exact|
+  double rms_m = 0.0, max_m = 0.0;            ///< |p^w_grid - p^w_exact|
   double rms_disp_m = 0.0, max_disp_m = 0.0;  ///< |p^w_exact - p|
   int count = 0;
 };
@@ -149,7 +151,10 @@ TEST(CohesionGrid, MatchesExactOnAWetCurlyScene) {
   // displacement |p^w - p| 3.43 mm (max 11.2 mm): |p^w_grid - p^w_exact| RMS / RMS displacement
   // and max, at 4 nodes per radius 0.038 and 1.44 mm, at 3 0.093 and 2.28 mm, at 2 0.32 and
   // 4.74 mm. Bounds: those with about 30 % margin.
-  struct Case { int cells; double rms_rel, max_mm; };
+  struct Case {
+    int cells;
+    double rms_rel, max_mm;
+  };
   for (const Case& k : {Case{4, 0.05, 1.9}, Case{3, 0.12, 3.0}, Case{2, 0.42, 6.2}}) {
     WetScene scene(300, k.cells);
     ASSERT_GT(scene.model.cohesion_grid_nodes, 0u);
@@ -161,16 +166,18 @@ TEST(CohesionGrid, MatchesExactOnAWetCurlyScene) {
     const int n_grid = computeDisplayCohesion(scene.model, c, &grid);
     EXPECT_EQ(grid.warnings.cohesion_grid_fallbacks, 0u);
     const Discrepancy d = compare(exact, grid);
-    std::printf("cells %d: exact %d grid %d clumped; |p^w_grid - p^w_exact| RMS %.4f mm max %.4f mm;"
-                " |p^w - p| RMS %.4f mm max %.4f mm; RMS ratio %.4f, max ratio %.4f\n",
-                k.cells, n_exact, n_grid, 1e3 * d.rms_m, 1e3 * d.max_m, 1e3 * d.rms_disp_m,
-                1e3 * d.max_disp_m, d.rms_m / d.rms_disp_m, d.max_m / d.max_disp_m);
+    std::printf(
+        "cells %d: exact %d grid %d clumped; |p^w_grid - p^w_exact| RMS %.4f mm max %.4f mm;"
+        " |p^w - p| RMS %.4f mm max %.4f mm; RMS ratio %.4f, max ratio %.4f\n",
+        k.cells, n_exact, n_grid, 1e3 * d.rms_m, 1e3 * d.max_m, 1e3 * d.rms_disp_m,
+        1e3 * d.max_disp_m, d.rms_m / d.rms_disp_m, d.max_m / d.max_disp_m);
     if (k.rms_rel > 0.0) {
       EXPECT_LT(d.rms_m / d.rms_disp_m, k.rms_rel) << k.cells;
       EXPECT_LT(1e3 * d.max_m, k.max_mm) << k.cells;
     }
     // The simulated positions are untouched.
-    for (size_t i = 0; i < grid.position.size(); ++i) ASSERT_EQ(grid.position[i], scene.state.position[i]);
+    for (size_t i = 0; i < grid.position.size(); ++i)
+      ASSERT_EQ(grid.position[i], scene.state.position[i]);
   }
 }
 
@@ -220,7 +227,8 @@ TEST(CohesionGrid, DryHairAndIsolatedStrandAreUntouched) {
   ASSERT_GT(model.cohesion_grid_nodes, 0u);
   HairState state = makeState(model, Pose(), Twist());
   EXPECT_EQ(computeDisplayCohesion(model, sc.cohesion, &state), 0) << "dry";
-  for (int i = 0; i < model.particleCount(); ++i) EXPECT_EQ(state.wet_position[i], state.position[i]);
+  for (int i = 0; i < model.particleCount(); ++i)
+    EXPECT_EQ(state.wet_position[i], state.position[i]);
   std::fill(state.saturation.begin(), state.saturation.end(), 1.0);
   EXPECT_EQ(computeDisplayCohesion(model, sc.cohesion, &state), 20);
   EXPECT_EQ(state.warnings.cohesion_grid_fallbacks, 0u);
@@ -275,7 +283,8 @@ TEST(CohesionGrid, FallsBackToExactWhenTheLatticeIsTooSmall) {
   EXPECT_EQ(grid.warnings.cohesion_grid_fallbacks, 1u);
   c.evaluation = "exact";
   computeDisplayCohesion(a.model, c, &exact);
-  for (int i = 0; i < a.model.particleCount(); ++i) ASSERT_EQ(grid.wet_position[i], exact.wet_position[i]);
+  for (int i = 0; i < a.model.particleCount(); ++i)
+    ASSERT_EQ(grid.wet_position[i], exact.wet_position[i]);
   std::string why;
   c.evaluation = "lattice";
   EXPECT_FALSE(c.validate("solver.cohesion.", &why));
@@ -313,7 +322,8 @@ TEST(Metrics, ClumpDistanceTanglesAndCurlShape) {
   // 4.2 mm contact: each of the 9 segment pairs side by side, and the 2 x 8 pairs offset by one
   // edge (they share an end height, so they are 4 mm apart too).
   EXPECT_EQ(tangleCount(f.model, f.state.position, 0.0021, &grid), 25);
-  EXPECT_NEAR(segmentDistance(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1, 1), Vec3(0.5, -1, 1)), 1.0, 1e-15);
+  EXPECT_NEAR(segmentDistance(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0.5, 1, 1), Vec3(0.5, -1, 1)), 1.0,
+              1e-15);
   // Curl shape of a generated helix comes back.
   Groom g;
   const Vec3List h = makeHelix(60, 0.006, 0.01, 0.03);

@@ -76,7 +76,8 @@ TEST(Frames, OrthonormalAlongAStrandThatFoldsBack) {
 
 TEST(Frames, RigidRotationRotatesFrames) {
   Vec3List p;
-  for (int i = 0; i < 30; ++i) p.push_back(Vec3(0.01 * std::cos(0.7 * i), 0.01 * std::sin(0.7 * i), 0.003 * i));
+  for (int i = 0; i < 30; ++i)
+    p.push_back(Vec3(0.01 * std::cos(0.7 * i), 0.01 * std::sin(0.7 * i), 0.003 * i));
   const Mat3 r = Eigen::AngleAxisd(0.8, Vec3(0.3, 0.5, 0.2).normalized()).toRotationMatrix();
   Vec3List q;
   for (const Vec3& x : p) q.push_back(r * x);

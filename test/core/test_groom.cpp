@@ -106,8 +106,8 @@ TEST(Groom, HelixAngleStepGivesTheChord) {
   for (double r : {0.005, 0.01, 0.02}) {
     for (double p : {0.0, 0.01, 0.05}) {
       const double dt = helixAngleStepForChord(r, p, 0.008);
-      const double chord = std::sqrt(4 * r * r * std::pow(std::sin(dt / 2), 2) +
-                                     std::pow(p / (2 * M_PI) * dt, 2));
+      const double chord =
+          std::sqrt(4 * r * r * std::pow(std::sin(dt / 2), 2) + std::pow(p / (2 * M_PI) * dt, 2));
       if (dt < M_PI) EXPECT_NEAR(chord, 0.008, 1e-12);
     }
   }

@@ -30,7 +30,8 @@ TEST(HeadCollider, EllipsoidDistanceIsZeroOnTheSurfaceAndCloseNearIt) {
       Vec3 n;
       EXPECT_NEAR(ellipsoidDistance(e, x, &n), 0.0, 1e-15);
       // Exact normal on the surface: x / r^2 normalised.
-      EXPECT_LT((n - x.cwiseQuotient(e.radii_m.cwiseProduct(e.radii_m)).normalized()).norm(), 1e-12);
+      EXPECT_LT((n - x.cwiseQuotient(e.radii_m.cwiseProduct(e.radii_m)).normalized()).norm(),
+                1e-12);
       // 5 mm outward along the normal: the estimate is within 5 % of the true 5 mm.
       EXPECT_NEAR(ellipsoidDistance(e, x + 0.005 * n, &n), 0.005, 0.00025);
     }
@@ -58,8 +59,8 @@ TEST(HeadCollider, HeadShapeTakesTheClosestShape) {
 TEST(HeadCollider, ProjectionIsInelasticWithoutAddedVelocity) {
   Vec3 x(0, 0, -0.002), v(0.0, 0.0, -1.0);
   EXPECT_TRUE(collideParticle(-0.002, Vec3::UnitZ(), 0.001, 0.0, Vec3::Zero(), &x, &v));
-  EXPECT_NEAR(x.z(), 0.001, 1e-15);     // moved to the offset surface
-  EXPECT_NEAR(v.norm(), 0.0, 1e-15);    // approaching normal velocity removed, nothing added
+  EXPECT_NEAR(x.z(), 0.001, 1e-15);        // moved to the offset surface
+  EXPECT_NEAR(v.norm(), 0.0, 1e-15);       // approaching normal velocity removed, nothing added
   Vec3 y(0, 0, -0.002), w(0.0, 0.0, 2.0);  // already leaving: velocity untouched
   collideParticle(-0.002, Vec3::UnitZ(), 0.001, 0.3, Vec3::Zero(), &y, &w);
   EXPECT_NEAR(w.z(), 2.0, 1e-15);

@@ -43,7 +43,8 @@ Groom arbitraryGroom(int strands) {
       // Turns from up to down over the strand, plus kinks.
       const double a = M_PI * i / (n - 1);
       dir = (Vec3(std::sin(a), 0.2 * std::sin(3.0 * a), std::cos(a)) +
-             0.4 * Vec3(u(rng), u(rng), u(rng))).normalized();
+             0.4 * Vec3(u(rng), u(rng), u(rng)))
+                .normalized();
       p += (0.006 + 0.004 * (0.5 + 0.5 * u(rng))) * dir;
     }
     g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
@@ -60,8 +61,8 @@ HairModel makeModel(const Groom& g, const SolverConfig& c) {
 }
 
 /// Net force on every particle at the rest pose on the still head (identity), computed as
-/// The stepper's stages 2-3 (strand_block.h): frames along the alpha_b-smoothed curve, stretch + bend + core per
-/// edge with F_i += f, F_{i+1} -= f, plus gravity.
+/// The stepper's stages 2-3 (strand_block.h): frames along the alpha_b-smoothed curve, stretch +
+/// bend + core per edge with F_i += f, F_{i+1} -= f, plus gravity.
 Vec3List restPoseForces(const HairModel& m, const SolverConfig& c) {
   Vec3List force(m.particleCount(), Vec3::Zero());
   Vec3List d, b;
@@ -79,10 +80,10 @@ Vec3List restPoseForces(const HairModel& m, const SolverConfig& c) {
     for (int i = 0; i < n; ++i) f[i] = m.mass_kg[begin + i] * c.gravity_m_s2;
     for (int i = 0; i + 1 < n; ++i) {
       const Vec3 e = p[i + 1] - p[i];
-      const Vec3 fs = stretchForce(e, m.rest_edge_m[begin + i], c.stretch.stiffness_n_per_m) +
-                      bendForce(e, frames[i] * m.bend_local_target[begin + i],
-                                c.bend.stiffness_n_per_m) +
-                      coreForce(b[i], m.core_rest_m[begin + i], c.core.stiffness_n_per_m);
+      const Vec3 fs =
+          stretchForce(e, m.rest_edge_m[begin + i], c.stretch.stiffness_n_per_m) +
+          bendForce(e, frames[i] * m.bend_local_target[begin + i], c.bend.stiffness_n_per_m) +
+          coreForce(b[i], m.core_rest_m[begin + i], c.core.stiffness_n_per_m);
       f[i] += fs;
       f[i + 1] -= fs;
     }
@@ -137,8 +138,9 @@ HairState runStill(const HairModel& m, const SolverConfig& c, double seconds) {
 TEST(SagFree, NetForceAtTheGroomIsZeroForAnyGroom) {
   for (int which = 0; which < 3; ++which) {
     SCOPED_TRACE(which == 0 ? "curly" : which == 1 ? "straight" : "arbitrary");
-    const Groom g = which == 0 ? generated(0.01, 12) : which == 1 ? generated(0.0, 12)
-                                                                   : arbitraryGroom(6);
+    const Groom g = which == 0   ? generated(0.01, 12)
+                    : which == 1 ? generated(0.0, 12)
+                                 : arbitraryGroom(6);
     SolverConfig c;
     const HairModel plain = makeModel(g, c);
     // Without the option, the elastic forces vanish at the groom: the net force is the weight.
@@ -205,8 +207,9 @@ TEST(SagFree, CurlyStrandsOnAStillHeadKeepTheirGroom) {
     const HairModel m = makeModel(g, c);
     const HairState s = runStill(m, c, 2.0);
     const Deviation on = deviation(m, s);
-    std::printf("[ measured ] %s springs, 2 s: RMS deviation / length %.3g -> %.3g, max %.3g -> %.3g\n",
-                soft ? "soft" : "default", off.rms, on.rms, off.max, on.max);
+    std::printf(
+        "[ measured ] %s springs, 2 s: RMS deviation / length %.3g -> %.3g, max %.3g -> %.3g\n",
+        soft ? "soft" : "default", off.rms, on.rms, off.max, on.max);
     EXPECT_GT(off.rms, 1e-2);  // the hair does sag without the option
     EXPECT_LT(on.rms, 0.1 * off.rms);
     EXPECT_LT(on.max, 0.1 * off.max);
@@ -240,8 +243,10 @@ TEST(SagFree, TheEquilibriumIsStable) {
       if (f < 30) early = std::max(early, deviation(m, s).max);
     }
     const Deviation late = deviation(m, s);
-    std::printf("[ measured ] %s springs, kicked: max deviation / length %.3g in the first 0.5 s, "
-                "%.3g (RMS %.3g) at 3 s\n", soft ? "soft" : "default", early, late.max, late.rms);
+    std::printf(
+        "[ measured ] %s springs, kicked: max deviation / length %.3g in the first 0.5 s, "
+        "%.3g (RMS %.3g) at 3 s\n",
+        soft ? "soft" : "default", early, late.max, late.rms);
     EXPECT_LT(late.max, 0.1 * early);
     EXPECT_EQ(s.warnings.total(), 0u);
   }
@@ -282,9 +287,12 @@ TEST(SagFree, ValidatedAndRebuiltOnItsInputs) {
   EXPECT_TRUE(scene.solver.sag_free);
   ASSERT_TRUE(io::applyParameters({"solver.gravity_m_s2.z"}, {-9.81}, &scene, &rebuild, &why));
   EXPECT_TRUE(rebuild);
-  ASSERT_TRUE(io::applyParameters({"solver.bend.stiffness_n_per_m"}, {12.0}, &scene, &rebuild, &why));
+  ASSERT_TRUE(
+      io::applyParameters({"solver.bend.stiffness_n_per_m"}, {12.0}, &scene, &rebuild, &why));
   EXPECT_TRUE(rebuild);
-  ASSERT_TRUE(io::applyParameters({"solver.bend.damping_ns_per_m"}, {0.07}, &scene, &rebuild, &why));
+  ASSERT_TRUE(
+      io::applyParameters({"solver.bend.damping_ns_per_m"}, {0.07}, &scene, &rebuild, &why));
   EXPECT_FALSE(rebuild);
-  EXPECT_FALSE(io::applyParameters({"solver.bend.stiffness_n_per_m"}, {0.0}, &scene, &rebuild, &why));
+  EXPECT_FALSE(
+      io::applyParameters({"solver.bend.stiffness_n_per_m"}, {0.0}, &scene, &rebuild, &why));
 }

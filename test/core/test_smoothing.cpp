@@ -18,7 +18,8 @@ TEST(Smoothing, StraightUniformStrandIsReproducedExactly) {
   for (int i = 0; i < 40; ++i) p[i] = Vec3(0.1, 0.2, 0.3) + i * step;
   for (double beta : {0.05, 0.3, 0.9, 1.0}) {
     smoothDifferences(p.data(), 40, beta, d.data());
-    for (int i = 0; i < 39; ++i) EXPECT_LT((d[i] - step).norm(), 1e-15) << "beta " << beta << " i " << i;
+    for (int i = 0; i < 39; ++i)
+      EXPECT_LT((d[i] - step).norm(), 1e-15) << "beta " << beta << " i " << i;
     rebuildCurve(p[0], d.data(), 40, curve.data());
     for (int i = 0; i < 40; ++i) EXPECT_LT((curve[i] - p[i]).norm(), 1e-14);
   }

@@ -122,9 +122,11 @@ namespace {
 double spinShapeChange(double rate_hz, double stiffness_scale, double seconds) {
   SolverConfig c;
   c.gravity_m_s2.setZero();
-  for (double* k : {&c.stretch.stiffness_n_per_m, &c.bend.stiffness_n_per_m, &c.core.stiffness_n_per_m})
+  for (double* k :
+       {&c.stretch.stiffness_n_per_m, &c.bend.stiffness_n_per_m, &c.core.stiffness_n_per_m})
     *k *= stiffness_scale;
-  for (double* d : {&c.stretch.damping_ns_per_m, &c.bend.damping_ns_per_m, &c.core.damping_ns_per_m})
+  for (double* d :
+       {&c.stretch.damping_ns_per_m, &c.bend.damping_ns_per_m, &c.core.damping_ns_per_m})
     *d *= std::sqrt(stiffness_scale);
   c.integrator.substep_s /= std::sqrt(stiffness_scale);
   const HairModel m = makeModel(curlyGroom(4), c);
@@ -158,7 +160,8 @@ TEST(Solver, EdgeStrainNeverExceedsTheLimit) {
   // Hard driving: fast spin under gravity, then a shake; the limiter holds every frame.
   SolverConfig c;
   const HairModel m = makeModel(curlyGroom(20), c);
-  for (const char* spec : {"spin:rate_hz=2", "shake:freq_hz=4,amplitude_rad=0.6", "teleport:distance_m=0.3,start_s=0.2"}) {
+  for (const char* spec : {"spin:rate_hz=2", "shake:freq_hz=4,amplitude_rad=0.6",
+                           "teleport:distance_m=0.3,start_s=0.2"}) {
     HeadMotionConfig motion;
     std::string why;
     ASSERT_TRUE(parseMotionSpec(spec, &motion, &why)) << why;
@@ -172,7 +175,8 @@ TEST(Solver, EdgeStrainNeverExceedsTheLimit) {
 namespace {
 
 /// Max particle speed after `seconds` of a single curly strand hanging still under gravity.
-double settledSpeed(double alpha_edges, double damping_ratio, double seconds, double substep = 2e-4) {
+double settledSpeed(double alpha_edges, double damping_ratio, double seconds,
+                    double substep = 2e-4) {
   SolverConfig c;
   c.bend.smoothing_edges = alpha_edges;
   c.bend.damping_ns_per_m = damping_ratio * 2.0 * std::sqrt(c.bend.stiffness_n_per_m * 1e-4);
@@ -207,7 +211,8 @@ TEST(Solver, BendingFlutterBoundOnBothSides) {
   // kMinBendDampingRatio) a hanging curl settles; outside it, it self-excites at any step size.
   EXPECT_LT(settledSpeed(kMinBendSmoothingEdges, 1.0, 3.0), 1e-3);
   EXPECT_LT(settledSpeed(kMinBendSmoothingEdges, 2.0 * kMinBendDampingRatio, 4.0), 1e-3);
-  EXPECT_GT(settledSpeed(2.0, 1.0, 3.0), 0.1) << "short smoothing flutters even when critically damped";
+  EXPECT_GT(settledSpeed(2.0, 1.0, 3.0), 0.1)
+      << "short smoothing flutters even when critically damped";
   EXPECT_GT(settledSpeed(2.0, 1.0, 3.0, 5e-5), 0.1) << "and at a 4x smaller step";
   EXPECT_GT(settledSpeed(kMinBendSmoothingEdges, 0.25, 3.0), 0.1) << "too little damping flutters";
   // The config refuses what flutters.
@@ -227,12 +232,13 @@ TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
   // Default damping, still head, curls dropped under gravity: total energy (kinetic + gravity +
   // springs) at each whole second is not above the previous second's while the hair moves.
   //
-  // Measured finding (docs/physics.md §2.6 "Energy"): the bending force of eq. (4) is not the gradient of an
-  // energy (frames come from the current curve; BendForceIsNotAnEnergyGradient below). Once the
-  // hair has settled (kinetic energy below 1e-8 J) it creeps toward the equilibrium of that
-  // force, which is not the minimum of the frame-fixed energy: the total then rises by about
-  // 4e-8 J, 7e-7 of itself, between t = 4 s and 6 s, with the kinetic energy under 1e-10 J.
-  // That phase is asserted separately, with its measured size, so a change is seen either way.
+  // Measured finding (docs/physics.md §2.6 "Energy"): the bending force of eq. (4) is not the
+  // gradient of an energy (frames come from the current curve; BendForceIsNotAnEnergyGradient
+  // below). Once the hair has settled (kinetic energy below 1e-8 J) it creeps toward the
+  // equilibrium of that force, which is not the minimum of the frame-fixed energy: the total then
+  // rises by about 4e-8 J, 7e-7 of itself, between t = 4 s and 6 s, with the kinetic energy under
+  // 1e-10 J. That phase is asserted separately, with its measured size, so a change is seen either
+  // way.
   SolverConfig c;
   const HairModel m = makeModel(curlyGroom(20), c);
   HeadMotionConfig still;
@@ -266,7 +272,8 @@ TEST(Solver, BendForceIsNotAnEnergyGradient) {
   gc.jitter = 0.0;
   const HairModel m = makeModel(generateGroom(gc, EllipsoidShape()), c);
   HairState s = makeState(m, Pose(), Twist());
-  for (int i = 1; i < m.particleCount(); ++i) s.position[i] += Vec3(0.001 * std::sin(i), 0.0007 * i, 0.0);
+  for (int i = 1; i < m.particleCount(); ++i)
+    s.position[i] += Vec3(0.001 * std::sin(i), 0.0007 * i, 0.0);
   auto bend = [&]() { return energy(m, c, Pose(), &s).bend; };
   const int i = 5;
   Vec3 fd_force;

@@ -327,8 +327,9 @@ TEST(SolverLanes, LaneLayoutsOutsideTheTableAreRefusedByName) {
 }
 
 TEST(SolverLanes, TheDefaultLayoutIsFloatInOneRegisterOfTheBuild) {
-  // A block wider than one register costs 3x per particle on an AVX2 machine (docs/performance.md "Float
-  // or double"): auto is float16 with AVX-512 and float8 without, and an explicit layout stays.
+  // A block wider than one register costs 3x per particle on an AVX2 machine (docs/performance.md
+  // "Float or double"): auto is float16 with AVX-512 and float8 without, and an explicit layout
+  // stays.
   IntegratorConfig c;
   EXPECT_EQ(c.lane_layout, "auto");
 #ifdef __AVX512F__

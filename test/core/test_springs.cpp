@@ -1,4 +1,5 @@
-// The spring kernels of eqs. (1), (4), (5) and the strain limiting of Iben/Selle (docs/physics.md §2).
+// The spring kernels of eqs. (1), (4), (5) and the strain limiting of Iben/Selle (docs/physics.md
+// §2).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,7 +13,8 @@ using namespace wet_curly_hair;
 TEST(Springs, StretchForceIsHookeAlongTheEdge) {
   const Vec3 e(0.0, 0.0, 0.011);
   const Vec3 f = stretchForce(e, 0.010, 500.0);
-  // k_s (|e| - |e0|) e^ = 500 * 0.001 along +z; applied +f to the root side: pulls it toward the tip.
+  // k_s (|e| - |e0|) e^ = 500 * 0.001 along +z; applied +f to the root side: pulls it toward the
+  // tip.
   EXPECT_NEAR(f.z(), 0.5, 1e-12);
   EXPECT_NEAR(f.head<2>().norm(), 0.0, 1e-15);
   EXPECT_EQ(stretchForce(Vec3(0.01, 0, 0), 0.01, 500.0), Vec3::Zero());
@@ -107,8 +109,8 @@ TEST(Springs, AxialSpringJacobianMatchesFiniteDifferencesUnderTension) {
   for (const Vec3& e : {Vec3(0.003, -0.004, 0.012), Vec3(0.0, 0.0, 0.0125), Vec3(1e-9, 0, 0.011)}) {
     const AxialJacobian<double> j = axialSpringJacobian(toV3(e), 0.01, 300.0, kDirectionEpsilon);
     const Mat3 analytic = toMat(isotropicPlusDyads(j.isotropic, j.axial, j.u, 0.0, j.u));
-    const Mat3 fd = finiteDifferenceJacobian([](const Vec3& x) { return stretchForce(x, 0.01, 300.0); },
-                                             e, 1e-8);
+    const Mat3 fd = finiteDifferenceJacobian(
+        [](const Vec3& x) { return stretchForce(x, 0.01, 300.0); }, e, 1e-8);
     EXPECT_LT((analytic - fd).norm(), 1e-5 * analytic.norm()) << e.transpose();
   }
 }
@@ -152,9 +154,8 @@ TEST(Springs, ImplicitEdgeBlockIsThetaHTimesDampingPlusThetaHTimesStiffness) {
                         Case{Vec3(0, 0, 0.0084), Vec3(0, 0, 0.0081)},
                         Case{Vec3(0.001, 0, 0.0083), Vec3(-0.001, 0, -0.0085)}}) {
     const Vec3 dv(0.05, -0.01, 0.02);
-    const EdgeImplicitTerms<double> terms =
-        edgeImplicitTerms(q, toV3(c.e), toV3(dv), 0.008, toV3(c.b), 0.0080, toV3(nu), gain,
-                          curl_k, toV3(omega));
+    const EdgeImplicitTerms<double> terms = edgeImplicitTerms(
+        q, toV3(c.e), toV3(dv), 0.008, toV3(c.b), 0.0080, toV3(nu), gain, curl_k, toV3(omega));
     auto elastic = [&](const Vec3& e) {
       return Vec3(stretchForce(e, 0.008, q.k_s) + bendForce(e, t, q.k_b) + curl_k * e);
     };
@@ -165,13 +166,14 @@ TEST(Springs, ImplicitEdgeBlockIsThetaHTimesDampingPlusThetaHTimesStiffness) {
       return Vec3(stretchDampingForce(c.e, v, q.c_s) + bendDampingForce(c.e, v, q.c_b));
     };
     const Vec3 w = c.b.normalized();
-    const Mat3 damp = finiteDifferenceJacobian(damping, dv, 1e-6) + q.c_c * gain * w * w.transpose();
+    const Mat3 damp =
+        finiteDifferenceJacobian(damping, dv, 1e-6) + q.c_c * gain * w * w.transpose();
     const Mat3 expected = q.theta_h * (damp + q.theta_h * j);
     EXPECT_LT((toMat(terms.block) - expected).norm(), 1e-6 * expected.norm()) << c.e.transpose();
     // The explicit remainder: the co-rotation part of the bend damping and the core damping
     // beyond the share the block carries.
-    const Vec3 remainder = -q.c_b * omega.cross(c.e) + coreDampingForce(c.b, nu, q.c_c) -
-                           q.c_c * gain * w.dot(dv) * w;
+    const Vec3 remainder =
+        -q.c_b * omega.cross(c.e) + coreDampingForce(c.b, nu, q.c_c) - q.c_c * gain * w.dot(dv) * w;
     EXPECT_LT((toEigen(terms.explicit_force) - remainder).norm(), 1e-15);
   }
 }
@@ -183,7 +185,8 @@ TEST(Springs, CoreLocalGainLiesBetweenTheFiltersLocalAndSmoothModeDerivatives) {
   // lies between the two.
   const double beta = smoothingBeta(0.008, 10 * 0.008);
   std::vector<Vec3> p(12);
-  for (int i = 0; i < 12; ++i) p[i] = Vec3(0.01 * std::cos(0.7 * i), 0.01 * std::sin(0.7 * i), 0.003 * i);
+  for (int i = 0; i < 12; ++i)
+    p[i] = Vec3(0.01 * std::cos(0.7 * i), 0.01 * std::sin(0.7 * i), 0.003 * i);
   auto diff = [&](const std::vector<Vec3>& q, int i) {
     std::vector<Vec3> d(q.size() - 1);
     smoothDifferences(q.data(), static_cast<int>(q.size()), beta, d.data());
@@ -192,7 +195,8 @@ TEST(Springs, CoreLocalGainLiesBetweenTheFiltersLocalAndSmoothModeDerivatives) {
   const int i = 7;
   const double step = 1e-7;
   std::vector<Vec3> moved = p;
-  for (int k = i + 1; k < 12; ++k) moved[k].x() += step;  // e_i grows by step along x, no other edge
+  for (int k = i + 1; k < 12; ++k)
+    moved[k].x() += step;  // e_i grows by step along x, no other edge
   const double local = (diff(moved, i) - diff(p, i)).x() / step;
   EXPECT_NEAR(local, beta * beta, 1e-6);
   std::vector<Vec3> scaled = p;

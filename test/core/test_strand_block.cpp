@@ -28,8 +28,8 @@ struct Scene {
     g.strands = 4;
     g.particles = 24;
     std::string why;
-    EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), 1e-4, HeadShape(), config, &model,
-                           &why))
+    EXPECT_TRUE(
+        buildModel(generateGroom(g, EllipsoidShape()), 1e-4, HeadShape(), config, &model, &why))
         << why;
     state = makeState(model, Pose(), Twist());
     SaturationCommand wet;
@@ -52,8 +52,8 @@ void forceSums(Scene& scene, std::vector<Vec3>* sums, std::vector<double>* large
   for (StrandFlags& f : flags) f.wet = true;
   const int width = kLaneWidth<S>;
   for (int first = 0; first < scene.model.strandCount(); first += width) {
-    Block<S> blk(scene.model, scene.config, scene.inputs, plan, &scene.state, &scene.state.scratch[0],
-                 &stats, 1e-3);
+    Block<S> blk(scene.model, scene.config, scene.inputs, plan, &scene.state,
+                 &scene.state.scratch[0], &stats, 1e-3);
     initBlock(&blk, first, width, flags);
     const SubstepMotion motion = substepMotion(scene.inputs, 0.0, 1.0, 1e-3);
     rootsFramesTargets(blk, motion);

@@ -14,7 +14,9 @@ TEST(Curl, RotationMapsHelixAxisOntoHairAxis) {
   std::mt19937 rng(7);
   std::normal_distribution<double> g;
   std::vector<std::pair<Vec3, Vec3>> cases;
-  for (int k = 0; k < 200; ++k) cases.push_back({Vec3(g(rng), g(rng), g(rng)).normalized(), Vec3(g(rng), g(rng), g(rng)).normalized()});
+  for (int k = 0; k < 200; ++k)
+    cases.push_back(
+        {Vec3(g(rng), g(rng), g(rng)).normalized(), Vec3(g(rng), g(rng), g(rng)).normalized()});
   const Vec3 a = Vec3(0.3, -0.4, 0.8).normalized();
   cases.push_back({a, a});
   cases.push_back({a, -a});
@@ -87,8 +89,10 @@ TEST(Stiffness, DecayPerSecondIsTheSameAtTwoSubsteps) {
   // (xi zeta)^(h / h_ref) applied 1/h times per second: the same decay whatever h (A17).
   for (double sigma : {0.0, 0.5, 1.0}) {
     double v_small = 1.0, v_large = 1.0;
-    for (int k = 0; k < 20000; ++k) v_small *= stiffnessFactor(0.999995, 0.9999, 1.0, sigma, 5e-5, 1e-4);
-    for (int k = 0; k < 2500; ++k) v_large *= stiffnessFactor(0.999995, 0.9999, 1.0, sigma, 4e-4, 1e-4);
+    for (int k = 0; k < 20000; ++k)
+      v_small *= stiffnessFactor(0.999995, 0.9999, 1.0, sigma, 5e-5, 1e-4);
+    for (int k = 0; k < 2500; ++k)
+      v_large *= stiffnessFactor(0.999995, 0.9999, 1.0, sigma, 4e-4, 1e-4);
     EXPECT_NEAR(v_small / v_large, 1.0, 0.01) << sigma;
     // And eq. (13) per reference step: 1e4 steps of xi zeta per second.
     EXPECT_NEAR(v_small, std::pow(0.999995 * (sigma * 0.9999 + (1 - sigma)), 1e4), 1e-9);

@@ -39,7 +39,9 @@ head:
   radii_m: {x: 0.1, y: 0.08, z: 0.12}
   capsules:
     - {name: neck, a_m: [0, 0, -0.05], b_m: [0, 0, -0.2], radius_m: 0.05}
-)", &scene, &why)) << why;
+)",
+                             &scene, &why))
+      << why;
   EXPECT_EQ(scene.groom.strands, 12);
   EXPECT_EQ(scene.groom.particles, 20);
   EXPECT_DOUBLE_EQ(scene.solver.gravity_m_s2.z(), -3.7);
@@ -102,8 +104,8 @@ TEST(Parameters, SetIsAllOrNothingAndNamesTheBadOne) {
   const std::string before = sceneToYaml(scene);
   std::string why;
   bool rebuild = false;
-  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.nope"}, {60.0, 1.0}, &scene,
-                               &rebuild, &why));
+  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.nope"}, {60.0, 1.0},
+                               &scene, &rebuild, &why));
   EXPECT_NE(why.find("solver.nope"), std::string::npos);
   EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.stretch.strain_limit"},
                                {60.0, -1.0}, &scene, &rebuild, &why));

@@ -1,10 +1,10 @@
 // The offline runner as a library: summary fields, frames written, bad scenes refused.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <sys/stat.h>
 
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/runner/offline_run.h"
@@ -36,9 +36,9 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   ASSERT_TRUE(readHairFile(options.hair_frames_dir + "/frame_00030.hair", &frame, &why)) << why;
   EXPECT_EQ(frame.strandCount(), 10);
   const std::string json = s.toJson();
-  for (const char* key : {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"", "\"wall_s\"",
-                          "\"sim_s\"", "\"max_strain\"", "\"mean_strain\"", "\"max_penetration_m\"",
-                          "\"repairs\"", "\"energy\"", "\"finite\""})
+  for (const char* key : {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"",
+                          "\"wall_s\"", "\"sim_s\"", "\"max_strain\"", "\"mean_strain\"",
+                          "\"max_penetration_m\"", "\"repairs\"", "\"energy\"", "\"finite\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
 }
 
@@ -169,10 +169,10 @@ TEST(OfflineRun, ScriptedSaturationChangesSeriesStrideAndHardCaseKeys) {
   EXPECT_GT(s.rss_end_kb, 0);
   EXPECT_GE(s.rss_peak_kb, s.rss_end_kb);
   const std::string json = s.toJson();
-  for (const char* key : {"\"max_penetration_after_first_step_m\"", "\"rigid_kinetic_energy_max_j\"",
-                          "\"head_peak_reach_speed_m_s\"", "\"saturation_changes\"", "\"rss_end_kb\"",
-                          "\"realtime_factor_windows\"", "\"mean_strain_end\"",
-                          "\"mean_strand_extension_end\""})
+  for (const char* key :
+       {"\"max_penetration_after_first_step_m\"", "\"rigid_kinetic_energy_max_j\"",
+        "\"head_peak_reach_speed_m_s\"", "\"saturation_changes\"", "\"rss_end_kb\"",
+        "\"realtime_factor_windows\"", "\"mean_strain_end\"", "\"mean_strand_extension_end\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
   // A saturation outside [0, 1] is refused with the option named.
   options.saturation_events = {{0.1, 1.5, 0.0}};

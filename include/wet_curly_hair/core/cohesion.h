@@ -1,6 +1,7 @@
 // Cohesion of wet strands (Kim 2023 §III.3): the stable display-position cohesion of eq. (10)
-// (A11-A14), and the force-based baselines the paper compares against, reconstructed (docs/physics.md
-// §4 Kim et al. 2017, §5 Lin 2015: their exact laws are not public, these are our readings).
+// (A11-A14), and the force-based baselines the paper compares against, reconstructed
+// (docs/physics.md §4 Kim et al. 2017, §5 Lin 2015: their exact laws are not public, these are our
+// readings).
 #pragma once
 
 #include <algorithm>

@@ -32,7 +32,8 @@ struct BendConfig {
   /// buildModel, which knows the masses).
   double damping_ns_per_m = 0.14;
   /// alpha_b, the IIR smoothing length of eq. (2), in mean rest edge lengths (dimensionless).
-  /// Below kMinBendSmoothingEdges the follower-like bending force self-excites (docs/physics.md §10.15).
+  /// Below kMinBendSmoothingEdges the follower-like bending force self-excites (docs/physics.md
+  /// §10.15).
   double smoothing_edges = 6.0;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -51,9 +52,10 @@ struct CollisionConfig {
   double offset_m = 0.001;  ///< delta: particles are kept this far outside the surface, m.
   double friction = 0.3;    ///< Coulomb coefficient mu, dimensionless.
   /// Extra collision/strain-limit rounds in a substep where a particle touched the head or an
-  /// obstacle and the strain limit then moved a particle of that strand. The strain limit runs after the collisions and can pull a projected particle
-  /// back inside (with one substep per frame, 4 mm into a top-knot, measured); each round
-  /// projects again and limits again, Gauss-Seidel on the two constraint sets. 0 = one round.
+  /// obstacle and the strain limit then moved a particle of that strand. The strain limit runs
+  /// after the collisions and can pull a projected particle back inside (with one substep per
+  /// frame, 4 mm into a top-knot, measured); each round projects again and limits again,
+  /// Gauss-Seidel on the two constraint sets. 0 = one round.
   int constraint_rounds = 3;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -120,11 +122,12 @@ struct CurlConfig {
   /// "spring": the restoring target-edge variant of A10, k_w sigma (M h_edge - e) (default, chosen
   /// by measurement, docs/physics.md §1.2); "literal": eq. (9) as a couple w_h sigma M h_edge.
   std::string mode = "spring";
-  double weight_n_per_m = 25.0;  ///< w_h (spring: k_w), N/m; the force scales with saturation.
-  double helix_radius_m = 0.006; ///< r of eq. (6): the wet curl's radius, m.
-  double helix_pitch_m = 0.018;  ///< rise per turn of the wet curl (2 pi p of eq. 6), m.
+  double weight_n_per_m = 25.0;   ///< w_h (spring: k_w), N/m; the force scales with saturation.
+  double helix_radius_m = 0.006;  ///< r of eq. (6): the wet curl's radius, m.
+  double helix_pitch_m = 0.018;   ///< rise per turn of the wet curl (2 pi p of eq. 6), m.
   /// M follows the strand's root-to-tip axis with this time constant (s; 0: at once, literal).
-  /// docs/physics.md §10.6: M taken at once from the moving axis is a follower load that self-excites.
+  /// docs/physics.md §10.6: M taken at once from the moving axis is a follower load that
+  /// self-excites.
   double rotation_time_constant_s = 0.1;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -135,8 +138,9 @@ struct CurlConfig {
 /// "off": none.
 struct CohesionConfig {
   std::string mode = "ours";
-  double tightness = 0.85;   ///< lambda of eq. (10) (A12 blend), dimensionless.
-  double radius_m = 0.04;    ///< kernel support h, m (chosen with include_self, docs/physics.md §1.3).
+  double tightness = 0.85;  ///< lambda of eq. (10) (A12 blend), dimensionless.
+  double radius_m =
+      0.04;  ///< kernel support h, m (chosen with include_self, docs/physics.md §1.3).
   /// Include the particle itself in the Shepard weights of eq. (10) (A13). Chosen by measurement
   /// (docs/physics.md §1.3): without it p^w jumps when a neighbour enters the kernel support.
   bool include_self = true;
@@ -155,8 +159,8 @@ struct CohesionConfig {
   /// "grid": the gathers read single-precision copies of the node sums and, like the own-strand
   /// share, evaluate the kernel in float (twice the SIMD lanes); particles whose other-strand
   /// weight is below 1e-3 of their own strand's, where float round-off would dominate the
-  /// own-strand cancellation, have both sums redone in double. Chosen by measurement (docs/physics.md
-  /// §7.3).
+  /// own-strand cancellation, have both sums redone in double. Chosen by measurement
+  /// (docs/physics.md §7.3).
   bool grid_single_precision = true;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -167,8 +171,8 @@ struct AdhesionConfig {
   /// Peak adhesion acceleration sigma nu A_max at sigma = 1, m/s^2 (nu = 1300 of the paper only
   /// means something in the authors' units; A16). Set this instead of nu.
   double peak_acceleration_m_s2 = 30.0;
-  double radius_m = 0.01;        ///< kernel h: attracts for h/2 < distance <= h, m.
-  bool literal_polynomial = false; ///< the paper's polynomial without Akinci's 1/4 power (A15).
+  double radius_m = 0.01;           ///< kernel h: attracts for h/2 < distance <= h, m.
+  bool literal_polynomial = false;  ///< the paper's polynomial without Akinci's 1/4 power (A15).
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -216,11 +220,11 @@ struct SolverConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Bending flutter bounds (docs/physics.md §10.15), measured on a hanging curly strand and tested on
-/// both sides by test/core/test_solver.cpp (BendingFlutter*), see docs/physics.md §2.6.
-/// The follower-like bending force self-excites at any step size when alpha_b is too short for
-/// its damping: at critical bend damping it flutters at 2 edge lengths and is calm at 3; at a
-/// quarter of critical it flutters at 4 and is calm at 5.
+/// Bending flutter bounds (docs/physics.md §10.15), measured on a hanging curly strand and tested
+/// on both sides by test/core/test_solver.cpp (BendingFlutter*), see docs/physics.md §2.6. The
+/// follower-like bending force self-excites at any step size when alpha_b is too short for its
+/// damping: at critical bend damping it flutters at 2 edge lengths and is calm at 3; at a quarter
+/// of critical it flutters at 4 and is calm at 5.
 constexpr double kMinBendSmoothingEdges = 4.0;
 /// Smallest bend damping ratio c_b / (2 sqrt(k_b m)), with m the particle mass.
 constexpr double kMinBendDampingRatio = 0.5;

@@ -1,5 +1,6 @@
-// Frames parallel-transported along the smoothed curve (Iben et al. 2013; docs/physics.md §2.4, §10.5),
-// generic over the lane scalar S (lane_math.h) with Eigen forms for callers that speak Eigen.
+// Frames parallel-transported along the smoothed curve (Iben et al. 2013; docs/physics.md §2.4,
+// §10.5), generic over the lane scalar S (lane_math.h) with Eigen forms for callers that speak
+// Eigen.
 #pragma once
 
 #include <cmath>
@@ -56,9 +57,8 @@ template <typename S>
 WCH_INLINE M33<S> minimalRotation(const V3<S>& a, const V3<S>& b) {
   const S c = dot(a, b);
   M33<S> r = rodrigues(a, b, c);
-  patchLanes(c < splat<S>(kOppositeCosine), [&](int l) {
-    setLane(&r, l, minimalRotationNearlyOpposite(lane(a, l), lane(b, l)));
-  });
+  patchLanes(c < splat<S>(kOppositeCosine),
+             [&](int l) { setLane(&r, l, minimalRotationNearlyOpposite(lane(a, l), lane(b, l))); });
   return r;
 }
 WCH_INLINE Mat3 minimalRotation(const Vec3& a, const Vec3& b) {
@@ -73,8 +73,7 @@ WCH_INLINE M33<S> frameFromTangent(const V3<S>& tangent, const V3<S>& hint) {
   V3<S> n = hint - dot(hint, t) * t;
   const S n_len = vsqrt(dot(n, n));
   n = n / n_len;
-  patchLanes(n_len < splat<S>(1e-9),
-             [&](int l) { setLane(&n, l, anyPerpendicular(lane(t, l))); });
+  patchLanes(n_len < splat<S>(1e-9), [&](int l) { setLane(&n, l, anyPerpendicular(lane(t, l))); });
   const V3<S> b = cross(t, n);
   M33<S> f;
   f.m[0][0] = t.x, f.m[1][0] = t.y, f.m[2][0] = t.z;

@@ -10,12 +10,12 @@
 
 namespace wet_curly_hair {
 
-/// Strands as one structure of arrays: strand s owns points [strand_offsets[s], strand_offsets[s+1]),
-/// its root first. Strands may have different particle counts.
+/// Strands as one structure of arrays: strand s owns points [strand_offsets[s],
+/// strand_offsets[s+1]), its root first. Strands may have different particle counts.
 struct Groom {
   std::vector<uint32_t> strand_offsets{0};  ///< strands + 1 entries.
   Vec3List points;                          ///< head frame, m.
-  Vec3List root_normals;                    ///< per strand: outward scalp normal at the root (unit).
+  Vec3List root_normals;  ///< per strand: outward scalp normal at the root (unit).
 
   int strandCount() const { return static_cast<int>(strand_offsets.size()) - 1; }
   int particleCount() const { return static_cast<int>(points.size()); }
@@ -35,15 +35,15 @@ struct EllipsoidShape {
 
 /// Parameters of the generated groom (scene YAML section `groom`).
 struct GroomConfig {
-  int strands = 200;                ///< number of strands.
-  int particles = 32;               ///< particles per strand, root included.
-  double length_m = 0.25;           ///< arc length of each strand, m.
-  double curl_radius_m = 0.01;      ///< helix radius, m; 0 gives straight hair.
-  double curl_pitch_m = 0.03;       ///< helix rise per turn, m (must be > 0 for curly hair).
-  double jitter = 0.1;              ///< relative random variation of radius, pitch, length.
-  int seed = 1;                     ///< random seed for root placement, phase and jitter.
-  double particle_mass_kg = 1e-4;   ///< mass of each non-root particle, kg.
-  double scalp_half_angle_deg = 70; ///< roots lie within this angle of the scalp axis.
+  int strands = 200;                 ///< number of strands.
+  int particles = 32;                ///< particles per strand, root included.
+  double length_m = 0.25;            ///< arc length of each strand, m.
+  double curl_radius_m = 0.01;       ///< helix radius, m; 0 gives straight hair.
+  double curl_pitch_m = 0.03;        ///< helix rise per turn, m (must be > 0 for curly hair).
+  double jitter = 0.1;               ///< relative random variation of radius, pitch, length.
+  int seed = 1;                      ///< random seed for root placement, phase and jitter.
+  double particle_mass_kg = 1e-4;    ///< mass of each non-root particle, kg.
+  double scalp_half_angle_deg = 70;  ///< roots lie within this angle of the scalp axis.
   Vec3 scalp_axis = Vec3(-0.25, 0.0, 1.0);  ///< centre direction of the scalp patch (head frame).
   bool validate(const std::string& prefix, std::string* why) const;
 };

@@ -1,6 +1,7 @@
 // The head as analytic shapes in the head frame (an ellipsoid plus optional capsules for neck
 // and ears), and the particle-vs-signed-distance collision response of Bridson et al.
-// (docs/physics.md §6): projection to the offset surface, inelastic normal response, Coulomb friction.
+// (docs/physics.md §6): projection to the offset surface, inelastic normal response, Coulomb
+// friction.
 #pragma once
 
 #include <algorithm>
@@ -56,8 +57,8 @@ WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<
 WCH_INLINE double capsuleAxisDistance(const CapsuleShape& c, Vec3* normal) {
   const Vec3 ab = c.b_m - c.a_m;
   if (ab.squaredNorm() > 0.0) {
-    const Vec3 across = ab.cross(Vec3::UnitZ()).norm() > 1e-9 ? ab.cross(Vec3::UnitZ())
-                                                                : ab.cross(Vec3::UnitX());
+    const Vec3 across =
+        ab.cross(Vec3::UnitZ()).norm() > 1e-9 ? ab.cross(Vec3::UnitZ()) : ab.cross(Vec3::UnitX());
     *normal = across.normalized();
   } else {
     *normal = Vec3::UnitZ();
@@ -134,8 +135,9 @@ struct HeadShape {
 /// stops when the friction would reverse it). The projection adds no velocity, so deep starts
 /// do not explode. v_obstacle is the collider's velocity at x.
 template <typename S>
-WCH_INLINE void collideParticle(const LaneMask<S>& contact, const S& d, const V3<S>& n, double delta,
-                            double mu, const V3<S>& v_obstacle, V3<S>* x, V3<S>* v) {
+WCH_INLINE void collideParticle(const LaneMask<S>& contact, const S& d, const V3<S>& n,
+                                double delta, double mu, const V3<S>& v_obstacle, V3<S>* x,
+                                V3<S>* v) {
   *x = select(contact, *x + (splat<S>(delta) - d) * n, *x);
   const V3<S> vrel = *v - v_obstacle;
   const S vn = dot(vrel, n);
@@ -151,7 +153,7 @@ WCH_INLINE void collideParticle(const LaneMask<S>& contact, const S& d, const V3
 
 /// The same for one particle; returns true when it was in contact (d < delta).
 WCH_INLINE bool collideParticle(double d, const Vec3& n, double delta, double mu,
-                            const Vec3& v_obstacle, Vec3* x, Vec3* v) {
+                                const Vec3& v_obstacle, Vec3* x, Vec3* v) {
   if (!(d < delta)) return false;
   V3<double> xs = toV3(*x), vs = toV3(*v);
   collideParticle<double>(true, d, toV3(n), delta, mu, toV3(v_obstacle), &xs, &vs);

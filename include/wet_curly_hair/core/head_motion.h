@@ -10,16 +10,16 @@ namespace wet_curly_hair {
 
 /// Scene YAML section `motion`; also `--motion NAME:key=value,...` in the runner.
 struct HeadMotionConfig {
-  std::string type = "still";  ///< still | spin | nod | shake | teleport | linear
-  double rate_hz = 0.5;        ///< spin: revolutions per second.
-  double freq_hz = 1.0;        ///< nod, shake: oscillation frequency, Hz.
-  double amplitude_rad = 0.35; ///< nod, shake: peak angle, rad.
-  double distance_m = 1.0;     ///< teleport: jump distance along axis, m.
-  double speed_m_s = 0.5;      ///< linear: speed along axis, m/s.
-  double start_s = 0.0;        ///< motion begins at this time (teleport: the jump instant), s.
-  double stop_s = 1e9;         ///< spin, nod, shake, linear stop dead at this time, s.
-  Vec3 axis = Vec3::UnitZ();   ///< spin axis / teleport and linear direction (head start frame).
-  Pose base;                   ///< head pose at rest (head -> world).
+  std::string type = "still";   ///< still | spin | nod | shake | teleport | linear
+  double rate_hz = 0.5;         ///< spin: revolutions per second.
+  double freq_hz = 1.0;         ///< nod, shake: oscillation frequency, Hz.
+  double amplitude_rad = 0.35;  ///< nod, shake: peak angle, rad.
+  double distance_m = 1.0;      ///< teleport: jump distance along axis, m.
+  double speed_m_s = 0.5;       ///< linear: speed along axis, m/s.
+  double start_s = 0.0;         ///< motion begins at this time (teleport: the jump instant), s.
+  double stop_s = 1e9;          ///< spin, nod, shake, linear stop dead at this time, s.
+  Vec3 axis = Vec3::UnitZ();    ///< spin axis / teleport and linear direction (head start frame).
+  Pose base;                    ///< head pose at rest (head -> world).
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

@@ -303,7 +303,7 @@ WCH_INLINE M33<S> select(const M& mask, const M33<S>& a, const M33<S>& b) {
 /// a I + b u u^T + c w w^T (symmetric).
 template <typename S>
 WCH_INLINE M33<S> isotropicPlusDyads(const S& a, const S& b, const V3<S>& u, const S& c,
-                                 const V3<S>& w) {
+                                     const V3<S>& w) {
   const S uu[3] = {u.x, u.y, u.z};
   const S ww[3] = {w.x, w.y, w.z};
   M33<S> r;

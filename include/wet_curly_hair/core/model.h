@@ -33,8 +33,8 @@ struct HairModel {
   /// the helix root-to-tip direction h^v (unit).
   Vec3List helix_edge;
   Vec3List helix_axis;
-  int max_strand_size = 0;                  ///< largest particle count of any strand.
-  double min_mass_kg = 0.0;                 ///< smallest non-root particle mass.
+  int max_strand_size = 0;   ///< largest particle count of any strand.
+  double min_mass_kg = 0.0;  ///< smallest non-root particle mass.
   /// Lattice nodes makeState allocates for the "grid" cohesion evaluation: enough for the hair's
   /// largest possible extent (cohesionGridNodeBound); 0 when the evaluation is "exact".
   size_t cohesion_grid_nodes = 0;

@@ -1,6 +1,7 @@
 // External obstacles in the world frame, each with a signed distance: analytic shapes (sphere,
 // box, plane) and a dense grid field (an OctoMap turned into a DenseSdf, placed by its pose).
-// Obstacle collision (docs/physics.md §6) and adhesion (eqs. 11-12) read them through one interface.
+// Obstacle collision (docs/physics.md §6) and adhesion (eqs. 11-12) read them through one
+// interface.
 #pragma once
 
 #include <memory>
@@ -16,11 +17,11 @@ namespace wet_curly_hair {
 struct AnalyticObstacle {
   enum class Shape { kSphere, kBox, kPlane };
   Shape shape = Shape::kSphere;
-  Vec3 center_m = Vec3::Zero();        ///< sphere and box centre; a point on the plane.
-  double radius_m = 0.1;               ///< sphere radius.
+  Vec3 center_m = Vec3::Zero();               ///< sphere and box centre; a point on the plane.
+  double radius_m = 0.1;                      ///< sphere radius.
   Vec3 half_extents_m = Vec3(0.1, 0.1, 0.1);  ///< box half sizes along its axes.
-  Quat orientation = Quat::Identity();  ///< box axes in the world.
-  Vec3 normal = Vec3::UnitZ();         ///< plane: unit normal pointing into free space.
+  Quat orientation = Quat::Identity();        ///< box axes in the world.
+  Vec3 normal = Vec3::UnitZ();                ///< plane: unit normal pointing into free space.
 
   /// Signed distance of world point x (negative inside) and the unit outward normal.
   double distance(const Vec3& x, Vec3* unit_normal) const;

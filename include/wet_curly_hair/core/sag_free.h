@@ -1,5 +1,6 @@
-// Sag-free start (docs/physics.md §8, after Hsu et al. 2023): solve the REST parameters of the springs,
-// not the positions, so that the groomed pose is an equilibrium under gravity on the still head.
+// Sag-free start (docs/physics.md §8, after Hsu et al. 2023): solve the REST parameters of the
+// springs, not the positions, so that the groomed pose is an equilibrium under gravity on the still
+// head.
 #pragma once
 
 #include "wet_curly_hair/core/config.h"

@@ -19,8 +19,8 @@ struct SaturationRegion {
   Kind kind = Kind::kEverywhere;
   bool in_head_frame = false;  ///< false: world frame.
   Vec3 center_m = Vec3::Zero();
-  double radius_m = 0.0;                  ///< sphere.
-  Vec3 half_extents_m = Vec3::Zero();     ///< axis-aligned box (in its frame).
+  double radius_m = 0.0;               ///< sphere.
+  Vec3 half_extents_m = Vec3::Zero();  ///< axis-aligned box (in its frame).
 };
 
 struct SaturationCommand {
@@ -40,7 +40,7 @@ bool validateSaturationCommand(const SaturationCommand& command, const HairModel
 /// selected strands get root + (tip - root) * s, with s the rest arc-length fraction of the
 /// particle along its strand; set or add, then clamped to [0, 1]. Returns the number of
 /// particles changed.
-int applySaturation(const HairModel& model, const SaturationCommand& command,
-                    const Pose& head_pose, HairState* state);
+int applySaturation(const HairModel& model, const SaturationCommand& command, const Pose& head_pose,
+                    HairState* state);
 
 }  // namespace wet_curly_hair

@@ -1,4 +1,5 @@
-// The step: a recipe of stages over each strand (docs/physics.md §9.2), time injected by the caller.
+// The step: a recipe of stages over each strand (docs/physics.md §9.2), time injected by the
+// caller.
 #pragma once
 
 #include <cstdint>
@@ -55,17 +56,17 @@ struct StepStats {
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
   /// Extra collision + strain-limit rounds run (strand-substeps x rounds; CollisionConfig).
   uint64_t constraint_rounds = 0;
-  uint64_t repaired_strands = 0;         ///< strands restored to their last good state.
-  uint64_t head_jumps = 0;               ///< 1 when this step's head motion was taken as a jump.
+  uint64_t repaired_strands = 0;  ///< strands restored to their last good state.
+  uint64_t head_jumps = 0;        ///< 1 when this step's head motion was taken as a jump.
   // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.
-  uint64_t curl_particle_substeps = 0;     ///< curl exaggeration (wet strands only).
-  uint64_t adhesion_particle_substeps = 0; ///< adhesion evaluated (wet, within obstacle reach).
-  uint64_t adhesion_active = 0;            ///< of those, inside the kernel band (pulled).
-  uint64_t obstacle_particle_substeps = 0; ///< obstacle distance evaluated (within reach).
-  uint64_t obstacle_contacts = 0;          ///< particle-substeps in contact with an obstacle.
-  uint64_t cohesion_particles = 0;         ///< wet particles that found cross-strand neighbours.
-  uint64_t wet_strands = 0;                ///< strands with any saturation.
-  uint64_t strands_near_obstacles = 0;     ///< strands whose reach touches an obstacle.
+  uint64_t curl_particle_substeps = 0;      ///< curl exaggeration (wet strands only).
+  uint64_t adhesion_particle_substeps = 0;  ///< adhesion evaluated (wet, within obstacle reach).
+  uint64_t adhesion_active = 0;             ///< of those, inside the kernel band (pulled).
+  uint64_t obstacle_particle_substeps = 0;  ///< obstacle distance evaluated (within reach).
+  uint64_t obstacle_contacts = 0;           ///< particle-substeps in contact with an obstacle.
+  uint64_t cohesion_particles = 0;          ///< wet particles that found cross-strand neighbours.
+  uint64_t wet_strands = 0;                 ///< strands with any saturation.
+  uint64_t strands_near_obstacles = 0;      ///< strands whose reach touches an obstacle.
   /// Per stage: particles it ran on (particle-substeps for per-substep stages, particles for
   /// per-step ones) and CPU seconds summed over the solver threads (only with inputs.clock).
   uint64_t stage_particles[kStageCount] = {};

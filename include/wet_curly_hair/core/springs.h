@@ -72,7 +72,7 @@ WCH_INLINE V3<S> coreDampingForce(const V3<S>& b, const V3<S>& nu, const S& c_c)
 /// velocity (the root side is already final: the sweep runs root -> tip).
 template <typename S>
 WCH_INLINE V3<S> clampAxialRelativeVelocity(const V3<S>& edge, const V3<S>& v_root_side,
-                                        const V3<S>& v_tip_side, const S& max_axial_speed) {
+                                            const V3<S>& v_tip_side, const S& max_axial_speed) {
   const S len = vsqrt(dot(edge, edge));
   const V3<S> e = edge / len;
   const S a = dot(v_tip_side - v_root_side, e);
@@ -88,7 +88,7 @@ WCH_INLINE V3<S> clampAxialRelativeVelocity(const V3<S>& edge, const V3<S>& v_ro
 /// the edge. Returns the displacement of the tip-side particle (zero within the limit).
 template <typename S>
 WCH_INLINE V3<S> limitEdgeLength(const V3<S>& p_root_side, const V3<S>& p_tip_side,
-                             const S& max_length) {
+                                 const S& max_length) {
   const V3<S> e = p_tip_side - p_root_side;
   const S len = vsqrt(dot(e, e));
   const auto within = (len <= max_length) || (len < splat<S>(kDirectionEpsilon));
@@ -108,7 +108,7 @@ struct AxialJacobian {
 };
 template <typename S>
 WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const S& rest, const S& k,
-                                            double degenerate_length) {
+                                                double degenerate_length) {
   const S len = vsqrt(dot(e, e));
   const auto degenerate = len < splat<S>(degenerate_length);
   const S zero = splat<S>(0.0);
@@ -132,7 +132,7 @@ WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const S& rest, c
 ///  - curl spring (A10): k_w sigma I.
 template <typename S>
 struct EdgeImplicitTerms {
-  M33<S> block;        ///< G, added to the pivots of both particles and coupling them.
+  M33<S> block;          ///< G, added to the pivots of both particles and coupling them.
   V3<S> explicit_force;  ///< segment force applied explicitly (F_i += f, F_{i+1} -= f).
 };
 struct EdgeImplicitParams {
@@ -141,17 +141,18 @@ struct EdgeImplicitParams {
 };
 template <typename S>
 WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams& q, const V3<S>& e,
-                                              const V3<S>& dv, const S& rest,
-                                              const V3<S>& b, const S& core_rest,
-                                              const V3<S>& nu, const S& core_local_gain,
-                                              const S& curl_stiffness, const V3<S>& omega) {
+                                                  const V3<S>& dv, const S& rest, const V3<S>& b,
+                                                  const S& core_rest, const V3<S>& nu,
+                                                  const S& core_local_gain, const S& curl_stiffness,
+                                                  const V3<S>& omega) {
   const AxialJacobian<S> stretch = axialSpringJacobian(e, rest, splat<S>(q.k_s), kDirectionEpsilon);
   const AxialJacobian<S> core =
       axialSpringJacobian(b, core_rest, splat<S>(q.k_c) * core_local_gain, kDirectionEpsilon);
   const S th = splat<S>(q.theta_h);
-  const S has_axis = select(dot(stretch.u, stretch.u) > splat<S>(0.0), splat<S>(1.0), splat<S>(0.0));
-  const S alpha = th * (splat<S>(q.c_b) +
-                        th * (stretch.isotropic + core.isotropic + splat<S>(q.k_b) + curl_stiffness));
+  const S has_axis =
+      select(dot(stretch.u, stretch.u) > splat<S>(0.0), splat<S>(1.0), splat<S>(0.0));
+  const S alpha = th * (splat<S>(q.c_b) + th * (stretch.isotropic + core.isotropic +
+                                                splat<S>(q.k_b) + curl_stiffness));
   const S beta = th * (has_axis * splat<S>(q.c_s - q.c_b) + th * stretch.axial);
   const S gamma = th * (splat<S>(q.c_c) * core_local_gain + th * core.axial);
   EdgeImplicitTerms<S> t;
@@ -192,11 +193,12 @@ WCH_INLINE Vec3 coreDampingForce(const Vec3& b, const Vec3& nu, double c_c) {
   return toEigen(coreDampingForce(toV3(b), toV3(nu), c_c));
 }
 WCH_INLINE Vec3 clampAxialRelativeVelocity(const Vec3& edge, const Vec3& v_root_side,
-                                       const Vec3& v_tip_side, double max_axial_speed) {
+                                           const Vec3& v_tip_side, double max_axial_speed) {
   return toEigen(
       clampAxialRelativeVelocity(toV3(edge), toV3(v_root_side), toV3(v_tip_side), max_axial_speed));
 }
-WCH_INLINE Vec3 limitEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side, double max_length) {
+WCH_INLINE Vec3 limitEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side,
+                                double max_length) {
   return toEigen(limitEdgeLength(toV3(p_root_side), toV3(p_tip_side), max_length));
 }
 

@@ -23,12 +23,12 @@ struct WarningStats {
 
 /// Scratch space for one strand, sized once for the longest strand.
 struct StrandScratch {
-  Vec3List force;       ///< per particle, N.
-  Vec3List smooth_bend; ///< d of eq. (2) for alpha_b, per edge.
-  Vec3List smooth_core; ///< b of eq. (5), per edge.
-  Vec3List smooth_vel;  ///< nu of eq. (5), per edge.
-  Mat3List frame;       ///< per edge.
-  Vec3List target;      ///< t_i per edge.
+  Vec3List force;        ///< per particle, N.
+  Vec3List smooth_bend;  ///< d of eq. (2) for alpha_b, per edge.
+  Vec3List smooth_core;  ///< b of eq. (5), per edge.
+  Vec3List smooth_vel;   ///< nu of eq. (5), per edge.
+  Mat3List frame;        ///< per edge.
+  Vec3List target;       ///< t_i per edge.
   // Implicit integrators only: the velocity at the start of the substep, the right-hand side
   // (then the forward-eliminated one), the per-edge coupling blocks and the inverted pivots of
   // the block-tridiagonal solve.
@@ -93,21 +93,21 @@ struct CohesionNodeGrid {
 
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
-  Vec3List position;       ///< world frame, m.
-  Vec3List velocity;       ///< world frame, m/s.
+  Vec3List position;               ///< world frame, m.
+  Vec3List velocity;               ///< world frame, m/s.
   std::vector<double> saturation;  ///< per particle, [0, 1].
   /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
   /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
   Vec3List wet_position;
-  Vec3List last_good_position;     ///< per particle, at the end of the last healthy step.
+  Vec3List last_good_position;  ///< per particle, at the end of the last healthy step.
   Vec3List last_good_velocity;
-  Mat3List curl_rotation;          ///< per strand: the last well-defined M of eq. (7) (A8).
-  Vec3List external_force;         ///< per particle: cross-strand forces of the baselines, N.
-  std::vector<double> density;     ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
-  Vec3List normal_scratch;         ///< per particle: Akinci surface normals (kim baseline).
+  Mat3List curl_rotation;       ///< per strand: the last well-defined M of eq. (7) (A8).
+  Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
+  std::vector<double> density;  ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
+  Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
   NeighborGrid grid;
   CohesionNodeGrid cohesion_grid;
-  double time_s = 0.0;             ///< simulated time of the current positions, s.
+  double time_s = 0.0;  ///< simulated time of the current positions, s.
   uint64_t step_count = 0;
   uint64_t substep_count = 0;
   WarningStats warnings;

@@ -50,7 +50,8 @@ inline Pose interpolate(const Pose& a, const Pose& b, double s) {
 struct Twist {
   Vec3 linear = Vec3::Zero();   // m/s
   Vec3 angular = Vec3::Zero();  // rad/s
-  /// Velocity of a point at world position x moving rigidly with the frame whose origin is `origin`.
+  /// Velocity of a point at world position x moving rigidly with the frame whose origin is
+  /// `origin`.
   Vec3 velocityAt(const Vec3& x, const Vec3& origin) const {
     return linear + angular.cross(x - origin);
   }

@@ -38,11 +38,11 @@ WCH_INLINE Mat3 literalEq7Rotation(const Vec3& h_unit, const Vec3& p_unit) {
 /// (a constant field aligning the edge).
 template <typename S>
 WCH_INLINE V3<S> curlForce(const V3<S>& rotated_helix_edge, const V3<S>& edge, const S& weight,
-                       bool spring) {
+                           bool spring) {
   return spring ? weight * (rotated_helix_edge - edge) : weight * rotated_helix_edge;
 }
 WCH_INLINE Vec3 curlForce(const Vec3& rotated_helix_edge, const Vec3& edge, double weight,
-                      double saturation, bool spring) {
+                          double saturation, bool spring) {
   return toEigen(curlForce(toV3(rotated_helix_edge), toV3(edge), weight * saturation, spring));
 }
 
@@ -64,7 +64,7 @@ WCH_INLINE double adhesionKernelPeak(double h, bool literal) {
 /// Eq. (13) in the substep-independent form of A17: the velocity factor (xi zeta)^(h / h_ref),
 /// zeta = sigma gamma0 + (1 - sigma) gamma1. Computed as exp(ratio * ln(...)) in double (§10.14).
 WCH_INLINE double stiffnessFactor(double xi, double gamma0, double gamma1, double saturation,
-                              double substep_s, double reference_step_s) {
+                                  double substep_s, double reference_step_s) {
   const double zeta = saturation * gamma0 + (1.0 - saturation) * gamma1;
   return std::exp((substep_s / reference_step_s) * std::log(xi * zeta));
 }

@@ -18,9 +18,9 @@ namespace io {
 
 /// Where the groom comes from when `groom.file` is set (a .hair file) instead of the generator.
 struct GroomFileConfig {
-  std::string file;         ///< path of a .hair file; empty: generate from `groom`.
-  double scale = 1.0;       ///< metres per file unit.
-  std::string up_axis = "z";///< the file's up axis: x, y, z, -x, -y, -z.
+  std::string file;              ///< path of a .hair file; empty: generate from `groom`.
+  double scale = 1.0;            ///< metres per file unit.
+  std::string up_axis = "z";     ///< the file's up axis: x, y, z, -x, -y, -z.
   Vec3 offset_m = Vec3::Zero();  ///< added after scale and axis change (head frame).
   int resample_particles = 0;    ///< 0 keeps the file's points.
   /// 0: off; else resample every strand to edges of about this length, m (particles per strand
@@ -36,8 +36,8 @@ struct SaturationInit {
 
 /// Run settings for the offline runner.
 struct RunConfig {
-  double seconds = 2.0;        ///< simulated time, s.
-  double frame_s = 1.0 / 60.0; ///< output frame (one solver step), s.
+  double seconds = 2.0;             ///< simulated time, s.
+  double frame_s = 1.0 / 60.0;      ///< output frame (one solver step), s.
   double strand_radius_m = 0.0005;  ///< for the tangle count: segments closer than this touch.
   double clump_search_m = 0.05;     ///< clump distance: nearest other strand searched this far.
   bool validate(const std::string& prefix, std::string* why) const;
@@ -45,10 +45,10 @@ struct RunConfig {
 
 /// An OctoMap obstacle file placed in the world (scene section `obstacle_map`).
 struct ObstacleMapConfig {
-  std::string file;               ///< .bt or .ot; empty: none.
-  Vec3 offset_m = Vec3::Zero();   ///< the map frame's origin in the world, m.
-  double resolution_m = 0.005;    ///< voxel size of the signed distance field, m.
-  double margin_m = 0.05;         ///< the reach box is grown by this, m.
+  std::string file;              ///< .bt or .ot; empty: none.
+  Vec3 offset_m = Vec3::Zero();  ///< the map frame's origin in the world, m.
+  double resolution_m = 0.005;   ///< voxel size of the signed distance field, m.
+  double margin_m = 0.05;        ///< the reach box is grown by this, m.
   bool unknown_is_occupied = false;
 };
 
@@ -71,11 +71,11 @@ struct SceneConfig {
 /// One named, typed parameter of a SceneConfig.
 struct ParamRef {
   enum class Type { kDouble, kInt, kBool, kString };
-  std::string name;        ///< dotted name, e.g. "solver.bend.stiffness_n_per_m".
+  std::string name;  ///< dotted name, e.g. "solver.bend.stiffness_n_per_m".
   Type type;
-  void* field;             ///< points into the SceneConfig the table was made for.
-  std::string doc;         ///< unit and meaning.
-  bool needs_rebuild;      ///< true when changing it requires rebuilding the model (reset).
+  void* field;         ///< points into the SceneConfig the table was made for.
+  std::string doc;     ///< unit and meaning.
+  bool needs_rebuild;  ///< true when changing it requires rebuilding the model (reset).
   double getAsDouble() const;
   /// Sets from a double (bools: 0 or 1; ints: integral values only). False with a reason if the
   /// value cannot represent the type; range checks are SceneConfig::validate's job.
@@ -109,8 +109,8 @@ std::string dottedToYaml(const std::string& dotted_name, const std::string& valu
 /// The spec string of an analytic obstacle (what AnalyticObstacle::parse reads back).
 std::string obstacleSpec(const AnalyticObstacle& obstacle);
 
-/// The built-in scene: soft curly hair, wet toward the tips, on the default head, nodding (`config/scenes/default.yaml`
-/// is a copy of it, kept in step by a test).
+/// The built-in scene: soft curly hair, wet toward the tips, on the default head, nodding
+/// (`config/scenes/default.yaml` is a copy of it, kept in step by a test).
 SceneConfig builtinScene();
 
 }  // namespace io

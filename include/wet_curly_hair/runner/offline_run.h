@@ -57,10 +57,10 @@ struct RunSummary {
   uint64_t nonfinite_values = 0;
   bool finite = true;
   double max_speed_end_m_s = 0.0;
-  std::vector<double> time_s;            ///< per frame
-  std::vector<double> energy;            ///< total energy per frame, J
-  std::vector<double> kinetic_energy;    ///< per frame, J
-  std::vector<double> max_speed_m_s;     ///< per frame
+  std::vector<double> time_s;          ///< per frame
+  std::vector<double> energy;          ///< total energy per frame, J
+  std::vector<double> kinetic_energy;  ///< per frame, J
+  std::vector<double> max_speed_m_s;   ///< per frame
   uint64_t velocity_clamps = 0;
   uint64_t strain_limited_edges = 0;
   uint64_t head_contacts = 0;
@@ -68,19 +68,20 @@ struct RunSummary {
   int hair_frames_written = 0;
   // Wet model measurements (docs/paper.md), taken on the output positions
   // (the cohesion display positions p^w when cohesion is "ours", else the simulated ones).
-  double clump_distance_m = 0.0;  ///< final frame: mean distance of a wet particle to another strand.
-  double jitter_m = 0.0;          ///< RMS second difference per frame of output positions, head frame.
-  int tangles = 0;                ///< final frame: touching segment pairs of different strands.
-  int max_tangles = 0;            ///< the most at any sampled frame (every 10th).
-  int tangles_sim = 0;            ///< final frame, on the simulated positions (not p^w).
-  double curl_radius_tip_m = 0.0; ///< final frame, tip third (simulated positions).
+  double clump_distance_m =
+      0.0;                ///< final frame: mean distance of a wet particle to another strand.
+  double jitter_m = 0.0;  ///< RMS second difference per frame of output positions, head frame.
+  int tangles = 0;        ///< final frame: touching segment pairs of different strands.
+  int max_tangles = 0;    ///< the most at any sampled frame (every 10th).
+  int tangles_sim = 0;    ///< final frame, on the simulated positions (not p^w).
+  double curl_radius_tip_m = 0.0;  ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
-  double obstacle_contact_s = 0.0;  ///< mean over strands that touched: time within the band.
-  double max_strand_extension = 0.0;///< largest arc length / rest length - 1 of any strand.
+  double obstacle_contact_s = 0.0;    ///< mean over strands that touched: time within the band.
+  double max_strand_extension = 0.0;  ///< largest arc length / rest length - 1 of any strand.
   uint64_t adhesion_active = 0;
   uint64_t obstacle_contacts = 0;
-  uint64_t cohesion_particles = 0;  ///< summed over steps.
-  double sdf_build_s = 0.0;         ///< OctoMap -> signed distance field build time, s.
+  uint64_t cohesion_particles = 0;          ///< summed over steps.
+  double sdf_build_s = 0.0;                 ///< OctoMap -> signed distance field build time, s.
   double max_obstacle_penetration_m = 0.0;  ///< deepest penetration into an obstacle, any frame.
   /// The same maxima over the frames after the first solver step (frame >= 1): a groom that
   /// starts inside the head or an obstacle is pushed out during the first step.
@@ -113,10 +114,10 @@ struct RunSummary {
   /// Simulated / wall time of step() per window of rtf_window_s simulated seconds (the last,
   /// partial window included when it holds at least one frame).
   std::vector<double> realtime_factor_windows;
-  std::string integrator;                   ///< solver.integrator.method
+  std::string integrator;  ///< solver.integrator.method
   /// solver.integrator.lane_layout, or "off" when strands run one at a time (strand_lanes).
   std::string lane_layout;
-  int threads = 1;                          ///< solver.integrator.threads
+  int threads = 1;  ///< solver.integrator.threads
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
   /// seconds (all threads).
   std::vector<uint64_t> stage_particles;
