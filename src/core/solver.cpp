@@ -138,6 +138,18 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, int s
   }
 }
 
+bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
+                    const HairState& state) {
+  const int begin = model.strandBegin(s);
+  const int n = model.strandSize(s);
+  const double bound = 3.0 * config.stretch.strain_limit;
+  for (int i = begin; i + 1 < begin + n; ++i) {
+    const double len = (state.position[i + 1] - state.position[i]).norm();
+    if (len > (1.0 + bound) * model.rest_edge_m[i]) return false;
+  }
+  return true;
+}
+
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h) {
   SolverPlan plan;
   plan.theta = integratorTheta(config.integrator);
@@ -170,18 +182,6 @@ bool strandFinite(const HairModel& model, int s, const HairState& state, uint64_
     }
   }
   return ok;
-}
-
-bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
-                    const HairState& state) {
-  const int begin = model.strandBegin(s);
-  const int n = model.strandSize(s);
-  const double bound = 3.0 * config.stretch.strain_limit;
-  for (int i = begin; i + 1 < begin + n; ++i) {
-    const double len = (state.position[i + 1] - state.position[i]).norm();
-    if (len > (1.0 + bound) * model.rest_edge_m[i]) return false;
-  }
-  return true;
 }
 
 StrandFlags strandFlags(const HairModel& model, const SolverConfig& config,
@@ -334,7 +334,7 @@ void repairStrands(const HairModel& model, const SolverConfig& config, const Ste
   for (int s = 0; s < model.strandCount(); ++s) {
     uint64_t nonfinite = 0;
     const bool finite = strandFinite(model, s, *state, &nonfinite);
-    const bool strain_ok = finite && strandStrainOk(model, config, s, *state);
+    const bool strain_ok = finite && detail::strandStrainOk(model, config, s, *state);
     const int begin = model.strandBegin(s);
     const int n = model.strandSize(s);
     if (finite && strain_ok) {

@@ -58,6 +58,11 @@ struct SolverPlan {
 };
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h);
 
+/// False when an edge of strand s is longer than 3x the strain limit allows: step() then restores
+/// the strand to its last good state and counts a strain repair.
+bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
+                    const HairState& state);
+
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
 /// (the eq. 13 velocity factors).
 void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,

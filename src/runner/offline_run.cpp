@@ -472,8 +472,7 @@ void finishSummary(const HairModel& model, const HairState& state, double sim_s,
   s->repairs = state.warnings.total();
   s->head_jumps = state.warnings.head_jumps;
   s->nonfinite_values = state.warnings.nonfinite_values;
-  s->finite = state.warnings.nonfinite_repairs == 0;
-  for (const Vec3& p : state.position) s->finite = s->finite && p.allFinite();
+  s->finite = runStayedFinite(state);
   s->max_speed_end_m_s =
       s->max_speed_m_s.empty() ? maxSpeed(model, state) : s->max_speed_m_s.back();
   s->rss_end_kb = procStatusKb("VmRSS:");
@@ -481,6 +480,15 @@ void finishSummary(const HairModel& model, const HairState& state, double sim_s,
 }
 
 }  // namespace
+
+bool runStayedFinite(const HairState& state) {
+  if (state.warnings.nonfinite_repairs > 0) return false;
+  for (const Vec3& p : state.position)
+    if (!p.allFinite()) return false;
+  return true;
+}
+
+int runExitCode(const RunSummary& summary) { return summary.finite ? 0 : 1; }
 
 bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* out,
               std::string* why) {

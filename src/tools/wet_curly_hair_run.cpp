@@ -299,5 +299,5 @@ int main(int argc, char** argv) {
     if (!out) return fail("cannot write " + cl.json_path);
   }
   std::cout << json << std::endl;
-  return summary.finite ? 0 : 1;
+  return io::runExitCode(summary);
 }

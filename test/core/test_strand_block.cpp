@@ -94,3 +94,26 @@ TEST(StrandBlock, InternalForcesCarryNoNetMomentumInOneLane) { expectNoNetIntern
 TEST(StrandBlock, InternalForcesCarryNoNetMomentumInFourLanes) {
   expectNoNetInternalForce<LaneDouble4>();
 }
+
+TEST(StrandBlock, StrainRepairTriggersPastThreeTimesTheStrainLimit) {
+  // The limiter runs last in every substep, so no finite step reaches the repair bound; the
+  // check itself (what step() runs on every strand after a step) is held to 3x the limit here.
+  Scene scene;
+  const double limit = scene.config.stretch.strain_limit;
+  scene.state = makeState(scene.model, Pose(), Twist());  // the rest pose: within every bound
+  const int begin = scene.model.strandBegin(1), edge = 5;
+  EXPECT_TRUE(strandStrainOk(scene.model, scene.config, 1, scene.state));
+  auto stretchEdgeTo = [&](double strain) {
+    // Moves every particle past the edge along it, so that only this edge changes length.
+    Vec3* p = &scene.state.position[begin];
+    const Vec3 e = p[edge + 1] - p[edge];
+    const double rest = scene.model.rest_edge_m[begin + edge];
+    const Vec3 shift = ((1.0 + strain) * rest / e.norm() - 1.0) * e;
+    for (int i = edge + 1; i < scene.model.strandSize(1); ++i) p[i] += shift;
+  };
+  stretchEdgeTo(2.9 * limit);
+  EXPECT_TRUE(strandStrainOk(scene.model, scene.config, 1, scene.state));
+  stretchEdgeTo(3.1 * limit);
+  EXPECT_FALSE(strandStrainOk(scene.model, scene.config, 1, scene.state));
+  EXPECT_TRUE(strandStrainOk(scene.model, scene.config, 0, scene.state));  // other strands: no
+}

@@ -6,6 +6,9 @@
 #include <cstdio>
 #include <fstream>
 
+#include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/runner/offline_run.h"
 
@@ -194,4 +197,32 @@ TEST(OfflineRun, StrandsStartingInsideAnObstacleArePushedOutInTheFirstStep) {
   ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
   EXPECT_GT(s.max_obstacle_penetration_m, 0.01);  // frame 0: deep inside
   EXPECT_LE(s.max_obstacle_penetration_after_first_step_m, scene.solver.obstacle.offset_m);
+}
+
+TEST(OfflineRun, ANonFiniteRunExitsOne) {
+  // A velocity gone NaN: step() restores the strand and counts it; the run did not stay finite
+  // although every position is finite again, and the runner exits 1. A healthy run exits 0.
+  GroomConfig g;
+  g.strands = 3;
+  g.particles = 12;
+  SolverConfig config;
+  HairModel model;
+  std::string why;
+  ASSERT_TRUE(
+      buildModel(generateGroom(g, EllipsoidShape()), 1e-4, HeadShape(), config, &model, &why))
+      << why;
+  HairState state = makeState(model, Pose(), Twist());
+  const StepInputs still{Pose(), Pose()};
+  step(model, config, still, 1.0 / 60, &state, nullptr);
+  EXPECT_TRUE(runStayedFinite(state));
+  RunSummary summary;
+  summary.finite = runStayedFinite(state);
+  EXPECT_EQ(runExitCode(summary), 0);
+  state.velocity[model.strandBegin(1) + 4].x() = std::nan("");
+  step(model, config, still, 1.0 / 60, &state, nullptr);
+  EXPECT_EQ(state.warnings.nonfinite_repairs, 1u);
+  for (const Vec3& p : state.position) ASSERT_TRUE(p.allFinite());
+  EXPECT_FALSE(runStayedFinite(state));
+  summary.finite = runStayedFinite(state);
+  EXPECT_EQ(runExitCode(summary), 1);
 }

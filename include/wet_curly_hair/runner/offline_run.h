@@ -125,6 +125,14 @@ struct RunSummary {
   std::string toJson() const;
 };
 
+/// Whether a run ended finite: every position finite and no strand restored from a non-finite
+/// value on the way (a repair hides the NaN from the positions, not from the run).
+bool runStayedFinite(const HairState& state);
+
+/// The runner's exit status for a finished run: 0, or 1 when it did not stay finite (a bad
+/// option or scene exits 2 before any run).
+int runExitCode(const RunSummary& summary);
+
 /// Runs the scene. False (with a reason) on a bad scene or an unwritable output.
 bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* summary,
               std::string* why);
