@@ -17,10 +17,10 @@
 
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/metrics.h"
-#include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/io/scene_setup.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 using namespace wet_curly_hair;
 
@@ -36,13 +36,7 @@ bool runCase(io::SceneConfig scene, bool sag_free, double seconds, Result* r, st
   HairModel model;
   if (!io::buildSceneModel(scene, &model, why)) return false;
   const HeadMotionConfig& motion = scene.motion;
-  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
-  if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
-    SaturationCommand wet;
-    wet.root_value = scene.saturation.root;
-    wet.tip_value = scene.saturation.tip;
-    applySaturation(model, wet, headPose(motion, 0.0), &state);
-  }
+  HairState state = io::initialSceneState(scene, model);
   const double frame = scene.run.frame_s;
   const long frames = std::lround(seconds / frame);
   for (long f = 0; f < frames; ++f) {

@@ -6,16 +6,9 @@
 namespace wet_curly_hair {
 
 void StrandScratch::resize(int n) {
-  force.assign(n, Vec3::Zero());
   smooth_bend.assign(n, Vec3::Zero());
   smooth_core.assign(n, Vec3::Zero());
-  smooth_vel.assign(n, Vec3::Zero());
   frame.assign(n, Mat3::Identity());
-  target.assign(n, Vec3::Zero());
-  velocity_start.assign(n, Vec3::Zero());
-  rhs.assign(n, Vec3::Zero());
-  edge_block.assign(n, Mat3::Zero());
-  pivot_inverse.assign(n, Mat3::Identity());
   velocity_factor.assign(n, 1.0);
   // The strand block (strand_block.h, carveBlockArrays): per particle 13 lane vectors of 3 lane
   // values, 2 lane matrices of 9 and 7 lane scalars, a lane value being at most 64 bytes (8

@@ -195,19 +195,6 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   return s;
 }
 
-/// The groom on the head at t = 0, wet as the scene says.
-HairState initialState(const SceneConfig& scene, const HairModel& model) {
-  const HeadMotionConfig& motion = scene.motion;
-  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
-  if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
-    SaturationCommand wet;
-    wet.root_value = scene.saturation.root;
-    wet.tip_value = scene.saturation.tip;
-    applySaturation(model, wet, headPose(motion, 0.0), &state);
-  }
-  return state;
-}
-
 /// The signed distance field of the scene's OctoMap, over the box the hair can reach: every root
 /// over the scripted motion, grown by the longest strand (buildSdfFromOctree adds the margin).
 bool buildObstacleField(const SceneConfig& scene, const HairModel& model, long frames,
@@ -481,6 +468,18 @@ void finishSummary(const HairModel& model, const HairState& state, double sim_s,
 
 }  // namespace
 
+HairState initialSceneState(const SceneConfig& scene, const HairModel& model) {
+  const HeadMotionConfig& motion = scene.motion;
+  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
+  if (scene.saturation.root > 0.0 || scene.saturation.tip > 0.0) {
+    SaturationCommand wet;
+    wet.root_value = scene.saturation.root;
+    wet.tip_value = scene.saturation.tip;
+    applySaturation(model, wet, headPose(motion, 0.0), &state);
+  }
+  return state;
+}
+
 bool runStayedFinite(const HairState& state) {
   if (state.warnings.nonfinite_repairs > 0) return false;
   for (const Vec3& p : state.position)
@@ -502,7 +501,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   std::vector<RunOptions::SaturationEvent> events;
   if (!checkOptions(options, model, &events, why)) return false;
   RunSummary s = startSummary(scene, options, rss_start_kb);
-  HairState state = initialState(scene, model);
+  HairState state = initialSceneState(scene, model);
   const double frame = scene.run.frame_s;
   const long frames = std::lround(scene.run.seconds / frame);
   Obstacles obstacles;

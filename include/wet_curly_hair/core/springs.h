@@ -19,20 +19,35 @@ namespace wet_curly_hair {
 /// Below this length a smoothed difference b has no direction (the core spring is off).
 constexpr double kCoreDirectionEpsilon = 1e-9;
 
+/// The axial spring shared by eqs. (1) and (5): k (|x| - L) x^, zero where |x| is below
+/// `degenerate_length` (no direction).
+template <typename S>
+WCH_INLINE V3<S> axialSpringForce(const V3<S>& x, const S& rest_length, const S& k,
+                                  double degenerate_length) {
+  const S len = vsqrt(dot(x, x));
+  return select(len < splat<S>(degenerate_length), zero3<S>(), (k * (len - rest_length) / len) * x);
+}
+
+/// The axial damper shared by eqs. (1) and (5): c (w . x^) x^, zero where |x| is below
+/// `degenerate_length`.
+template <typename S>
+WCH_INLINE V3<S> axialDampingForce(const V3<S>& x, const V3<S>& w, const S& c,
+                                   double degenerate_length) {
+  const S len2 = dot(x, x);
+  return select(len2 < splat<S>(degenerate_length * degenerate_length), zero3<S>(),
+                (c * dot(w, x) / len2) * x);
+}
+
 /// Eq. (1), elastic part: k_s (|e| - |e0|) e^. Zero for a degenerate edge.
 template <typename S>
 WCH_INLINE V3<S> stretchForce(const V3<S>& edge, const S& rest_length, const S& k_s) {
-  const S len = vsqrt(dot(edge, edge));
-  return select(len < splat<S>(kDirectionEpsilon), zero3<S>(),
-                (k_s * (len - rest_length) / len) * edge);
+  return axialSpringForce(edge, rest_length, k_s, kDirectionEpsilon);
 }
 
 /// Eq. (1), damping part: c_s (dv . e^) e^, with dv = v_{i+1} - v_i.
 template <typename S>
 WCH_INLINE V3<S> stretchDampingForce(const V3<S>& edge, const V3<S>& dv, const S& c_s) {
-  const S len2 = dot(edge, edge);
-  return select(len2 < splat<S>(kDirectionEpsilon * kDirectionEpsilon), zero3<S>(),
-                (c_s * dot(dv, edge) / len2) * edge);
+  return axialDampingForce(edge, dv, c_s, kDirectionEpsilon);
 }
 
 /// Eq. (4), elastic part: k_b (e_i - t_i), with the target t_i = F_i e_i^loc (physics.md §2.5).
@@ -53,18 +68,14 @@ WCH_INLINE V3<S> bendDampingForce(const V3<S>& edge, const V3<S>& dv, const S& c
 /// curve. Zero when |b| vanishes (flat curls, folded strands; physics.md §10.3).
 template <typename S>
 WCH_INLINE V3<S> coreForce(const V3<S>& b, const S& rest_length, const S& k_c) {
-  const S len = vsqrt(dot(b, b));
-  return select(len < splat<S>(kCoreDirectionEpsilon), zero3<S>(),
-                (k_c * (len - rest_length) / len) * b);
+  return axialSpringForce(b, rest_length, k_c, kCoreDirectionEpsilon);
 }
 
 /// Eq. (5), damping part: c_c (nu . b^) b^, nu the smoothed relative velocity zeta(V, alpha_c)_i
 /// (A5).
 template <typename S>
 WCH_INLINE V3<S> coreDampingForce(const V3<S>& b, const V3<S>& nu, const S& c_c) {
-  const S len2 = dot(b, b);
-  return select(len2 < splat<S>(kCoreDirectionEpsilon * kCoreDirectionEpsilon), zero3<S>(),
-                (c_c * dot(nu, b) / len2) * b);
+  return axialDampingForce(b, nu, c_c, kCoreDirectionEpsilon);
 }
 
 /// Iben §2.2a, inside the damping pass: clamps the axial relative velocity of an edge so that

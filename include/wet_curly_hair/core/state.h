@@ -23,25 +23,16 @@ struct WarningStats {
 
 /// Scratch space for one strand, sized once for the longest strand.
 struct StrandScratch {
-  Vec3List force;        ///< per particle, N.
+  // The energy diagnostics' smoothed curves and frames (diagnostics.cpp); the stepper keeps its
+  // own in lane_buffer.
   Vec3List smooth_bend;  ///< d of eq. (2) for alpha_b, per edge.
   Vec3List smooth_core;  ///< b of eq. (5), per edge.
-  Vec3List smooth_vel;   ///< nu of eq. (5), per edge.
   Mat3List frame;        ///< per edge.
-  Vec3List target;       ///< t_i per edge.
-  // Implicit integrators only: the velocity at the start of the substep, the right-hand side
-  // (then the forward-eliminated one), the per-edge coupling blocks and the inverted pivots of
-  // the block-tridiagonal solve.
-  Vec3List velocity_start;
-  Vec3List rhs;
-  Mat3List edge_block;
-  Mat3List pivot_inverse;
   /// Eq. (13) velocity factor per particle for the current strand and substep length (the
   /// saturation is constant within a step): computed once per strand and step, not per substep.
   std::vector<double> velocity_factor;
-  /// Structure-of-arrays storage of a block of strands advanced in SIMD lanes (the implicit
-  /// integrators with IntegratorConfig::strand_lanes), for strands of up to lane_capacity
-  /// particles.
+  /// Structure-of-arrays storage of the strand-block stepper (strand_block.h: one strand, or a
+  /// block of strands in SIMD lanes), for strands of up to lane_capacity particles.
   std::vector<double> lane_buffer;
   int lane_capacity = 0;
   void resize(int max_strand_size);

@@ -125,6 +125,9 @@ struct RunSummary {
   std::string toJson() const;
 };
 
+/// The scene's groom on the head at t = 0, wet as its `saturation` section says.
+HairState initialSceneState(const SceneConfig& scene, const HairModel& model);
+
 /// Whether a run ended finite: every position finite and no strand restored from a non-finite
 /// value on the way (a repair hides the NaN from the positions, not from the run).
 bool runStayedFinite(const HairState& state);
