@@ -271,8 +271,9 @@ void elasticForces(Block<S>& blk) {
 
 /// Curl exaggeration, eqs. (6)-(9) (A6-A10), on the wet lanes: each strand's helix edges turned
 /// by M (helix root-to-tip onto the hair's, A7), pulled on with the saturation of the edge.
+/// Returns the particles it ran on.
 template <typename S>
-void curlForces(Block<S>& blk) {
+uint64_t curlForces(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
   M33<S> rot = splat33<S>(Mat3::Identity());
   for (int l = 0; l < Block<S>::kWidth; ++l) {
@@ -294,7 +295,9 @@ void curlForces(Block<S>& blk) {
   }
   uint64_t lanes_on = 0;
   for (int l = 0; l < blk.active; ++l) lanes_on += blk.curl_on[l];
-  blk.stats->curl_particle_substeps += uint64_t(blk.n) * lanes_on;
+  const uint64_t particles = uint64_t(blk.n) * lanes_on;
+  blk.stats->curl_particle_substeps += particles;
+  return particles;
 }
 
 /// Lanes whose obstacle distance must be evaluated at x. A signed distance changes by at most
@@ -670,10 +673,7 @@ void substepBlock(Block<S>& blk, const SubstepMotion& motion) {
   elasticForces(blk);
   laps.lap(kStageForces, particles);
   if (blk.any_curl) {
-    curlForces(blk);
-    uint64_t lanes_on = 0;
-    for (int l = 0; l < blk.active; ++l) lanes_on += blk.curl_on[l];
-    laps.lap(kStageCurl, uint64_t(blk.n) * lanes_on);
+    laps.lap(kStageCurl, curlForces(blk));
   }
   if (blk.any_adhesion) laps.lap(kStageAdhesion, adhesionForces(blk));
   if (blk.plan.implicit)
