@@ -49,7 +49,7 @@ bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* wh
   Groom groom;
   HairImportReport r;
   if (!makeGroom(scene, &groom, why, &r)) return false;
-  if (!buildModel(groom, scene.groom.particle_mass_kg, scene.head, scene.solver, model, why))
+  if (!buildModel(groom, scene.groom.linear_density_kg_per_m, scene.head, scene.solver, model, why))
     return false;
   if (report != nullptr) *report = std::move(r);
   return true;
