@@ -107,7 +107,7 @@ double bendSmoothingLength(const BendConfig& bend, double l, bool stabilize) {
                    : bend.smoothing_length_m;
 }
 
-/// The spring constants of strand s from the per-length parameters (docs/physics.md §2.7): per
+/// The spring constants of strand s from the per-length parameters (docs/physics.md §2.11): per
 /// edge the stretch spring over the groom's edge, per strand bend, core and curl over the mean
 /// edge l; with `stabilize`, c_b raised to the flutter bound. Returns whether alpha_b or c_b
 /// was raised.

@@ -349,7 +349,7 @@ std::string unknownParameterMessage(const std::string& name) {
     if (name == r.old_name)
       return name + ": no longer a parameter: parameters are per length of strand, so that the " +
              "same hair at any particle count is the same hair; use " + r.new_name + " (" + r.unit +
-             "; docs/physics.md §2.7 converts)";
+             "; docs/physics.md §2.11 converts)";
   return name + ": unknown parameter";
 }
 

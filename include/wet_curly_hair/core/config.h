@@ -12,11 +12,11 @@ namespace wet_curly_hair {
 
 /// Reference edge length of the default parameters: the built-in groom's 25 cm strands at 32
 /// particles. The per-length defaults below are the per-edge constants the project was tuned
-/// with at that resolution, converted by the scalings of docs/physics.md §2.7.
+/// with at that resolution, converted by the scalings of docs/physics.md §2.11.
 constexpr double kDefaultEdgeM = 0.25 / 31.0;
 
 /// Stretch spring, eq. (1), with Selle-style strain limiting (docs/physics.md §2.2, §3). Per
-/// length (docs/physics.md §2.7): edge i gets k_s = EA / L_i and c_s = C_s / L_i, so a strand
+/// length (docs/physics.md §2.11): edge i gets k_s = EA / L_i and c_s = C_s / L_i, so a strand
 /// refined n times is the same hair.
 struct StretchConfig {
   double axial_stiffness_n = 4.0;  ///< EA, N per unit strain (k_s = 500 N/m at 8.06 mm edges).
@@ -32,7 +32,7 @@ struct StretchConfig {
 };
 
 /// Bending spring, eq. (4), on frames parallel-transported along the alpha_b-smoothed curve. Per
-/// length (docs/physics.md §2.7): a strand with mean edge L gets k_b = B / (L alpha_b^2) and
+/// length (docs/physics.md §2.11): a strand with mean edge L gets k_b = B / (L alpha_b^2) and
 /// c_b = D_b / L. At coarse resolution buildModel lengthens alpha_b to kMinBendSmoothingEdges
 /// edges and raises c_b to kMinBendDampingRatio of critical, where the follower-like force
 /// would otherwise flutter (docs/physics.md §10.15), and counts the strands it changed.
@@ -132,7 +132,7 @@ struct CurlConfig {
   /// "spring": the restoring target-edge variant of A10, k_w sigma (M h_edge - e) (default, chosen
   /// by measurement, docs/physics.md §1.2); "literal": eq. (9) as a couple w_h sigma M h_edge.
   std::string mode = "spring";
-  /// W, N: w_h (spring: k_w) = W / L for a strand of mean edge L (docs/physics.md §2.7; 25 N/m
+  /// W, N: w_h (spring: k_w) = W / L for a strand of mean edge L (docs/physics.md §2.11; 25 N/m
   /// at 8.06 mm edges); the force scales with saturation.
   double weight_n = 0.2;
   double helix_radius_m = 0.006;  ///< r of eq. (6): the wet curl's radius, m.
@@ -157,7 +157,7 @@ struct CohesionConfig {
   /// (docs/physics.md §1.3): without it p^w jumps when a neighbour enters the kernel support.
   bool include_self = true;
   /// lin: attraction spring between two pieces of strand, N/m per m of each (a particle pair
-  /// gets K l_i l_j with l the length a particle stands for, docs/physics.md §2.7). The default
+  /// gets K l_i l_j with l the length a particle stands for, docs/physics.md §2.11). The default
   /// (0.004 N/m per pair at 8.06 mm edges) clumps the cohesion scene about as much as "ours"
   /// does (docs/physics.md §1.3), so that the comparison is at equal clumping.
   double lin_stiffness_n_per_m3 = 60.0;

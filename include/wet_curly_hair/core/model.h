@@ -32,7 +32,7 @@ struct HairModel {
   std::vector<double> beta_bend;        ///< per strand, beta for alpha_b (eq. 2).
   std::vector<double> beta_core;        ///< per strand, beta for alpha_c.
   std::vector<double> strand_length_m;  ///< per strand, rest arc length.
-  // Spring constants from the per-length parameters (docs/physics.md §2.7). Per edge: the
+  // Spring constants from the per-length parameters (docs/physics.md §2.11). Per edge: the
   // stretch spring over the groom's edge length L_i. Per strand, over its mean edge L (the IIR
   // curves of eq. 2 already treat a strand as uniform with that edge, A3): bend, core, curl.
   std::vector<double> stretch_k;  ///< k_s = EA / L_i, N/m.
@@ -75,7 +75,7 @@ struct HairModel {
 
 /// Builds the model from a groom (head frame), its linear density (kg/m) and the solver config
 /// (the smoothing lengths, masses and per-length spring constants enter the precompute of
-/// docs/physics.md §9.1, §2.7). Returns false with a reason on bad input: a refusal names a
+/// docs/physics.md §9.1, §2.11). Returns false with a reason on bad input: a refusal names a
 /// physical value (a strand that would hang past the strain limit under its own weight at any
 /// resolution), never the particle count.
 bool buildModel(const Groom& groom, double linear_density_kg_per_m, const HeadShape& head,
