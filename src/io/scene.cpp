@@ -59,6 +59,14 @@ bool SceneConfig::validate(std::string* why) const {
       }
       return false;
     }
+    const double min_edge = groom_file.min_edge_m;
+    if (!std::isfinite(min_edge) || (min_edge != 0.0 && (min_edge < 1e-5 || min_edge > 0.1))) {
+      if (why) {
+        *why = "groom_file.min_edge_m: " + std::to_string(min_edge) +
+               " must be 0 (off) or in [1e-5, 0.1] m";
+      }
+      return false;
+    }
     if (edge != 0.0 && groom_file.resample_particles != 0) {
       if (why) {
         *why = "groom_file.resample_edge_m: set together with groom_file.resample_particles (" +
@@ -117,6 +125,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   i("groom_file.resample_particles", &gf.resample_particles, "0 keeps the file's points", true);
   d("groom_file.resample_edge_m", &gf.resample_edge_m,
     "edge length to resample every strand to, m (0: off; particles follow each strand's length)",
+    true);
+  d("groom_file.min_edge_m", &gf.min_edge_m,
+    "shortest edge kept: finer strands are resampled, strands under two edges skipped, m (0: off)",
     true);
   addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
   addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);

@@ -31,6 +31,7 @@ bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why, HairImp
   options.offset_m = scene.groom_file.offset_m;
   options.resample_particles = scene.groom_file.resample_particles;
   options.resample_edge_m = scene.groom_file.resample_edge_m;
+  options.min_edge_m = scene.groom_file.min_edge_m;
   options.head_center_m = scene.head.ellipsoid.center_m;
   Groom imported;
   HairImportReport imported_report;

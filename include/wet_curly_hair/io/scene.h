@@ -26,6 +26,10 @@ struct GroomFileConfig {
   /// 0: off; else resample every strand to edges of about this length, m (particles per strand
   /// follow its length, at least 3). Exclusive with resample_particles.
   double resample_edge_m = 0.0;
+  /// Shortest edge an imported strand keeps, m (0: off): a strand sampled finer is resampled to
+  /// fewer particles (unless resample_* is set), and a strand shorter than two such edges is
+  /// skipped as too short to bend (HairImportOptions::min_edge_m).
+  double min_edge_m = 0.001;
 };
 
 /// Initial saturation: a root-to-tip ramp on every strand (scene section `saturation`).
