@@ -89,17 +89,17 @@ void addVec(std::vector<ParamRef>* t, const std::string& name, Vec3* v, const st
 
 }  // namespace
 
-std::vector<ParamRef> parameterTable(SceneConfig* s) {
+namespace {
+
+/// The groom and groom_file rows of parameterTable.
+void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   using T = ParamRef::Type;
-  std::vector<ParamRef> t;
+  std::vector<ParamRef>& t = *table;
   auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
     t.push_back({n, T::kDouble, f, doc, rebuild});
   };
   auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
     t.push_back({n, T::kInt, f, doc, rebuild});
-  };
-  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kBool, f, doc, rebuild});
   };
   auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
     t.push_back({n, T::kString, f, doc, rebuild});
@@ -129,6 +129,26 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("groom_file.min_edge_m", &gf.min_edge_m,
     "shortest edge kept: finer strands are resampled, strands under two edges skipped, m (0: off)",
     true);
+}
+
+}  // namespace
+
+std::vector<ParamRef> parameterTable(SceneConfig* s) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef> t;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kInt, f, doc, rebuild});
+  };
+  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kBool, f, doc, rebuild});
+  };
+  auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kString, f, doc, rebuild});
+  };
+  addGroomParameters(s, &t);
   addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
   addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);
   SolverConfig& c = s->solver;
