@@ -98,18 +98,11 @@ void addBendFrameGradientForce(const Vec3* p, int n, double beta, const Mat3& ro
     a_next = a;
     r_next = minimalRotation(before, u);
   }
-  // 3. Backward through eq. (2): lambda_i = dE/dd_i + f1 lambda_{i+1} - f2 lambda_{i+2}; edge i
-  // gets f3 lambda_i, and edge 0 also the start d_{-1} = d_{-2} = e_0 (A2).
-  const double f1 = 2.0 * (1.0 - beta), f2 = (1.0 - beta) * (1.0 - beta), f3 = beta * beta;
-  Vec3 l1 = Vec3::Zero(), l2 = Vec3::Zero();  // lambda_{i+1}, lambda_{i+2}
-  for (int i = edges - 1; i >= 0; --i) {
-    const Vec3 lambda = adjoint[i] + f1 * l1 - f2 * l2;
-    Vec3 g_edge = f3 * lambda;
-    if (i == 0) g_edge += (f1 - f2) * lambda - f2 * l1;
-    force[i + 1] -= g_edge;
-    force[i] += g_edge;
-    l2 = l1;
-    l1 = lambda;
+  // 3. Backward through eq. (2) to the edges (smoothDifferencesAdjoint), then to the particles.
+  smoothDifferencesAdjoint(adjoint, n, beta, d);  // d is free again: the edge gradients
+  for (int i = 0; i < edges; ++i) {
+    force[i + 1] -= d[i];
+    force[i] += d[i];
   }
 }
 

@@ -161,6 +161,8 @@ SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h
   plan.implicit = plan.theta > 0.0;
   plan.curl_spring = config.curl.mode == "spring";
   plan.inelastic_limit = config.stretch.limit_velocity == "inelastic";
+  plan.bend_frame_gradient = config.bend.frame_gradient && config.bend.stiffness_n_m2 > 0.0;
+  plan.core_filter_gradient = config.core.filter_gradient;
   plan.force_cohesion = config.cohesion.mode == "lin" || config.cohesion.mode == "kim";
   plan.lanes = config.integrator.strand_lanes;
   plan.lane_width = config.integrator.laneWidth();

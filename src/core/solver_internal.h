@@ -46,15 +46,17 @@ struct SubstepMotion {
 
 /// What a step does, resolved once per step from the configuration's strings and the substep.
 struct SolverPlan {
-  double theta = 0.0;            ///< integratorTheta; 0 for the explicit method.
-  bool implicit = false;         ///< theta > 0.
-  bool curl_spring = true;       ///< CurlConfig::mode "spring" (else "literal").
-  bool inelastic_limit = false;  ///< StretchConfig::limit_velocity "inelastic".
-  bool force_cohesion = false;   ///< CohesionConfig::mode "lin" or "kim".
-  bool lanes = true;             ///< IntegratorConfig::strand_lanes.
-  int lane_width = 8;            ///< strands per block (IntegratorConfig::laneWidth()).
-  bool lane_float = true;        ///< the lanes compute in float.
-  int damping_passes = 1;        ///< explicit damping passes (dampingPassCount).
+  double theta = 0.0;                 ///< integratorTheta; 0 for the explicit method.
+  bool implicit = false;              ///< theta > 0.
+  bool curl_spring = true;            ///< CurlConfig::mode "spring" (else "literal").
+  bool inelastic_limit = false;       ///< StretchConfig::limit_velocity "inelastic".
+  bool bend_frame_gradient = false;   ///< BendConfig::frame_gradient, with bending on.
+  bool core_filter_gradient = false;  ///< CoreSpringConfig::filter_gradient.
+  bool force_cohesion = false;        ///< CohesionConfig::mode "lin" or "kim".
+  bool lanes = true;                  ///< IntegratorConfig::strand_lanes.
+  int lane_width = 8;                 ///< strands per block (IntegratorConfig::laneWidth()).
+  bool lane_float = true;             ///< the lanes compute in float.
+  int damping_passes = 1;             ///< explicit damping passes (dampingPassCount).
 };
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h);
 

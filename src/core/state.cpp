@@ -9,6 +9,7 @@ void StrandScratch::resize(int n) {
   smooth_bend.assign(n, Vec3::Zero());
   smooth_core.assign(n, Vec3::Zero());
   frame.assign(n, Mat3::Identity());
+  for (Vec3List* v : {&bend_p, &bend_force, &bend_adjoint}) v->assign(n, Vec3::Zero());
   velocity_factor.assign(n, 1.0);
   // The strand block (strand_block.h, carveBlockArrays): per particle 13 lane vectors of 3 lane
   // values, 2 lane matrices of 9 and 7 lane scalars, a lane value being at most 64 bytes (8

@@ -22,6 +22,7 @@
 #include <type_traits>
 
 #include "solver_internal.h"
+#include "wet_curly_hair/core/bend_gradient.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/lane_math.h"
@@ -107,6 +108,7 @@ struct Block {
   // Per-strand spring constants (HairModel::bend_k ...): curl_weight is w_h (W / L) on a wet
   // lane, curl_stiffness the same in spring mode only (the implicit block's share).
   S bend_k, bend_c, core_k, core_c, curl_weight, curl_stiffness;
+  Mat3 root_frame[kWidth];  ///< the frame of edge 0 at the start of the substep, per lane.
   bool any_core_damping = false;
   S max_strain;
   /// Beyond this distance neither obstacle collision (offset) nor adhesion (kernel support) acts.
@@ -248,7 +250,8 @@ V3<S> rootsFramesTargets(Block<S>& blk, const SubstepMotion& motion) {
   for (int l = 0; l < Block<S>::kWidth; ++l) {
     setLane(&root_next, l,
             motion.pose1.apply(blk.model.rest_position_head[blk.begin[l]]) - blk.origin);
-    setLane(&frame, l, motion.r0 * blk.model.root_frame_head[blk.strand[l]]);
+    blk.root_frame[l] = motion.r0 * blk.model.root_frame_head[blk.strand[l]];
+    setLane(&frame, l, blk.root_frame[l]);
   }
   a.v[0] = (root_next - a.p[0]) / splat<S>(blk.h);
   smoothDifferences(a.p, blk.n, blk.beta_bend, a.d);
@@ -274,13 +277,51 @@ void elasticForces(Block<S>& blk) {
       if (blk.flags[l].external_force)
         for (int i = 0; i < blk.n; ++i)
           setLane(&a.f[i], l, lane(a.f[i], l) + blk.state->external_force[blk.begin[l] + i]);
+  const bool core_local = !blk.plan.core_filter_gradient;
   for (int i = 0; i < blk.edges; ++i) {
     const V3<S> e = a.p[i + 1] - a.p[i];
-    const V3<S> fs = stretchForce(e, a.rest[i], a.stretch_k[i]) +
-                     bendForce(e, a.target[i], blk.bend_k) +
-                     coreForce(a.b[i], a.core_rest[i], blk.core_k);
+    V3<S> fs = stretchForce(e, a.rest[i], a.stretch_k[i]) + bendForce(e, a.target[i], blk.bend_k);
+    if (core_local) fs += coreForce(a.b[i], a.core_rest[i], blk.core_k);
     a.f[i] += fs;
     a.f[i + 1] -= fs;
+  }
+  if (!core_local) {
+    // a.nu is free until the damping recomputes it.
+    for (int i = 0; i < blk.edges; ++i) a.nu[i] = coreForce(a.b[i], a.core_rest[i], blk.core_k);
+    applyEdgeForcesThroughFilter(blk, a.nu);
+  }
+  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk);
+}
+
+/// Forces g_i computed on the alpha_c-smoothed differences b_i (eq. 5) applied to the edges through
+/// the filter's transpose (smoothDifferencesAdjoint), so that the core spring is the gradient of
+/// its energy sum 1/2 k_c (|b_i| - |b0_i|)^2 (CoreSpringConfig::filter_gradient). In place.
+template <typename S>
+void applyEdgeForcesThroughFilter(Block<S>& blk, V3<S>* g) {
+  BlockArrays<S>& a = blk.a;
+  smoothDifferencesAdjoint(g, blk.n, blk.beta_core, g);
+  for (int i = 0; i < blk.edges; ++i) {
+    a.f[i] += g[i];
+    a.f[i + 1] -= g[i];
+  }
+}
+
+/// The bending force's part through the frames (BendConfig::frame_gradient, bend_gradient.h),
+/// lane by lane in double.
+template <typename S>
+void bendFrameGradientForces(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  StrandScratch& scr = *blk.scratch;
+  for (int l = 0; l < blk.active; ++l) {
+    for (int i = 0; i < blk.n; ++i) {
+      scr.bend_p[i] = lane(a.p[i], l) - lane(a.p_carry[i], l);
+      scr.bend_force[i].setZero();
+    }
+    addBendFrameGradientForce(scr.bend_p.data(), blk.n, laneValue(blk.beta_bend, l),
+                              blk.root_frame[l], &blk.model.bend_local_target[blk.begin[l]],
+                              laneValue(blk.bend_k, l), scr.frame.data(), scr.smooth_bend.data(),
+                              scr.bend_adjoint.data(), scr.bend_force.data());
+    for (int i = 1; i < blk.n; ++i) setLane(&a.f[i], l, lane(a.f[i], l) + scr.bend_force[i]);
   }
 }
 
@@ -388,9 +429,16 @@ void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
       const V3<S> dv = a.v[i + 1] - a.v[i];
       V3<S> fd = stretchDampingForce(e, dv, a.stretch_c[i]) +
                  bendDampingForce(e, dv - cross(omega, e), blk.bend_c);
-      if (core_damping) fd += coreDampingForce(a.b[i], a.nu[i], blk.core_c);
+      if (core_damping && !blk.plan.core_filter_gradient)
+        fd += coreDampingForce(a.b[i], a.nu[i], blk.core_c);
       a.f[i] += fd;
       a.f[i + 1] -= fd;
+    }
+    if (core_damping && blk.plan.core_filter_gradient) {
+      // Through the filter's transpose, as the core spring (elasticForces): then the damping's
+      // power is -c_c sum (nu_i . b^_i)^2, never positive.
+      for (int i = 0; i < blk.edges; ++i) a.rhs[i] = coreDampingForce(a.b[i], a.nu[i], blk.core_c);
+      applyEdgeForcesThroughFilter(blk, a.rhs);
     }
     for (int i = 1; i < n; ++i) a.v[i] += (tau * a.inv_m[i]) * a.f[i];
   }

@@ -166,11 +166,17 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.bend.damping_n_s", &c.bend.damping_n_s, "D_b, N s (eq. 4: c_b = D_b / L)", false);
   d("solver.bend.smoothing_length_m", &c.bend.smoothing_length_m,
     "alpha_b, bend frame smoothing length, m (eq. 2)", true);
+  b("solver.bend.frame_gradient", &c.bend.frame_gradient,
+    "bending force through the frames too: the gradient of its energy (docs/physics.md §2.6)",
+    false);
   d("solver.core.stiffness_n", &c.core.stiffness_n, "K_c, N per unit strain (eq. 5: k_c = K_c / L)",
     false);
   d("solver.core.damping_n_s", &c.core.damping_n_s, "C_c, N s (eq. 5: c_c = C_c / L)", false);
   d("solver.core.smoothing_length_m", &c.core.smoothing_length_m,
     "alpha_c, core smoothing length, m (eq. 2)", true);
+  b("solver.core.filter_gradient", &c.core.filter_gradient,
+    "core force through the filter's transpose: the gradient of its energy (physics.md §2.7)",
+    false);
   b("solver.collision.head_enabled", &c.collision.head_enabled, "collide with the head", false);
   d("solver.collision.offset_m", &c.collision.offset_m, "collision offset delta, m", false);
   d("solver.collision.friction", &c.collision.friction, "Coulomb friction mu", false);

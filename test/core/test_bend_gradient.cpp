@@ -133,3 +133,32 @@ TEST(BendGradient, ZeroLengthEdgeAndShortStrandsAreFinite) {
 }
 
 }  // namespace wet_curly_hair
+
+namespace wet_curly_hair {
+
+TEST(SmoothingAdjoint, IsTheTransposeOfTheFilter) {
+  // <g, S e> = <S^T g, e> for the linear map S: edges -> smoothed differences of eq. (2), with
+  // the start d_{-1} = d_{-2} = e_0, on random edges and adjoints: the dot-product test.
+  for (double beta : {1.0, 0.6, 0.15, 0.02}) {
+    const int n = 17;
+    Vec3List p(n), g(n - 1), d(n - 1), dedge(n - 1);
+    for (int i = 0; i < n; ++i) p[i] = Vec3(std::sin(1.3 * i), std::cos(0.7 * i * i), 0.1 * i);
+    for (int i = 0; i + 1 < n; ++i)
+      g[i] = Vec3(std::cos(2.1 * i), std::sin(i + 0.5), 1.0 / (i + 1));
+    smoothDifferences(p.data(), n, beta, d.data());
+    smoothDifferencesAdjoint(g.data(), n, beta, dedge.data());
+    double lhs = 0.0, rhs = 0.0;
+    for (int i = 0; i + 1 < n; ++i) {
+      lhs += g[i].dot(d[i]);
+      rhs += dedge[i].dot(p[i + 1] - p[i]);
+    }
+    EXPECT_NEAR(lhs, rhs, 1e-12 * std::abs(lhs)) << beta;
+  }
+  // In place (g and the output the same array), as the stepper calls it.
+  Vec3List g = {Vec3(1, 2, 3), Vec3(-1, 0, 2), Vec3(0.5, 0.5, 0.5)}, out(3), in_place = g;
+  smoothDifferencesAdjoint(g.data(), 4, 0.3, out.data());
+  smoothDifferencesAdjoint(in_place.data(), 4, 0.3, in_place.data());
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(out[i], in_place[i]);
+}
+
+}  // namespace wet_curly_hair

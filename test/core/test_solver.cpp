@@ -303,6 +303,57 @@ TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
   EXPECT_LT(previous.kinetic, 1e-12);
 }
 
+TEST(Solver, WithTheFrameAndFilterGradientsEnergyNeverGrows) {
+  // The same 20 curls with the bending force's part through the frames (BendConfig::
+  // frame_gradient) and the core force through the filter's transpose (CoreSpringConfig::
+  // filter_gradient): both are gradients of the energies the diagnostics sum, so with a still
+  // head and damping the total never rises from one second to the next, not even by the creep
+  // above. Measured (double4): it falls to 2 s, then stays flat to 1e-16 J of 0.048 J; with the
+  // bending part alone it still rose by 4e-9 J between 2 and 3 s (the core spring's, local on
+  // edge i, is not a gradient either). Bound: 1e-12 of the total, round-off.
+  SolverConfig c;
+  c.bend.frame_gradient = true;
+  c.core.filter_gradient = true;
+  c.integrator.lane_layout = "double4";
+  const HairModel m = makeModel(curlyGroom(20), c);
+  HairState s = makeState(m, Pose(), Twist());
+  double previous = energy(m, c, Pose(), &s).total(), worst_rise = -1.0;
+  int frame = 0;
+  run(m, c, HeadMotionConfig(), 8.0, &s, [&](double, const HairState&, const StepStats&) {
+    if (++frame % 60 != 0) return;
+    const double e = energy(m, c, Pose(), &s).total();
+    worst_rise = std::max(worst_rise, e - previous);
+    previous = e;
+  });
+  EXPECT_LE(worst_rise, 1e-12 * previous);
+  EXPECT_LT(energy(m, c, Pose(), &s).kinetic, 1e-12);
+}
+
+TEST(Solver, WithTheGradientsRestStaysRestAndRigidMotionStaysRigid) {
+  // The parts through the frames and the filter vanish at the rest targets (the energy's
+  // minimum) and move with the head: the curls keep their groom without gravity, on a still head
+  // and carried.
+  SolverConfig c;
+  c.bend.frame_gradient = true;
+  c.core.filter_gradient = true;
+  c.gravity_m_s2.setZero();
+  c.integrator.lane_layout = "double4";
+  const HairModel m = makeModel(curlyGroom(3), c);
+  HairState s = makeState(m, Pose(), Twist());
+  run(m, c, HeadMotionConfig(), 2.0, &s, [](double, const HairState&, const StepStats&) {});
+  EXPECT_LT(shapeChange(m, s, Pose()), 1e-9);
+  HeadMotionConfig motion;
+  motion.type = "linear";
+  motion.speed_m_s = 0.7;
+  motion.axis = Vec3(1, 2, -0.5);
+  HairState moved = makeState(m, headPose(motion, 0.0), headTwist(motion, 0.0));
+  double worst = 0.0;
+  run(m, c, motion, 1.0, &moved, [&](double t, const HairState& st, const StepStats&) {
+    worst = std::max(worst, shapeChange(m, st, headPose(motion, t)));
+  });
+  EXPECT_LT(worst, 1e-9);
+}
+
 TEST(Solver, BendForceIsNotAnEnergyGradient) {
   // Why the energy above can creep: the applied bending force k_b (e - t) holds the frames fixed,
   // but the frames (so the targets t) move with the particles. Finite differences of the bend

@@ -43,6 +43,12 @@ struct BendConfig {
   double damping_n_s = 1.13e-3;
   /// alpha_b, the IIR smoothing length of eq. (2), m (six default edges).
   double smoothing_length_m = 0.048;
+  /// Add the force's derivative through the frames (bend_gradient.h), so that the bending force
+  /// is the gradient of its energy, sum 1/2 k_b |e_i - F_i t_i^loc|^2: the same rest targets and
+  /// rest shape, no energy from the frames' motion (docs/physics.md §2.6 "Energy"). Off: Iben's
+  /// force with the frames held (eq. 4 as written). Off by default until the bench has measured
+  /// it on every scene.
+  bool frame_gradient = false;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -52,6 +58,11 @@ struct CoreSpringConfig {
   double stiffness_n = 0.4;          ///< K_c, N per unit strain of b (k_c = 50 N/m at 8.06 mm).
   double damping_n_s = 2.8e-4;       ///< C_c, N s (c_c = 0.035 N s/m at 8.06 mm).
   double smoothing_length_m = 0.08;  ///< alpha_c, m (ten default edges).
+  /// Apply the core force, computed on the smoothed differences b_i, to the edges through the
+  /// filter's transpose (smoothDifferencesAdjoint): the gradient of sum 1/2 k_c (|b_i| -
+  /// |b0_i|)^2, and a core damping that never adds energy (explicit method; the implicit block
+  /// keeps its local share, coreLocalGain). Off: eq. (5) on edge i alone, as Iben writes it.
+  bool filter_gradient = false;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

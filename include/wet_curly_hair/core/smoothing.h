@@ -39,6 +39,27 @@ WCH_INLINE void smoothDifferences(const Sample* lambda, int count, Scalar beta, 
   }
 }
 
+/// The transpose of smoothDifferences: given g_i = dE/dd_i for the count - 1 differences, writes
+/// dE/de_i for the count - 1 edges e_i = lambda_{i+1} - lambda_i (reverse mode through eq. 2):
+/// a_i = g_i + f1 a_{i+1} - f2 a_{i+2} tip -> root, dE/de_i = f3 a_i, and edge 0 also carries the
+/// start d_{-1} = d_{-2} = e_0 (A2). A force computed on d_i and applied to edge i alone (the core
+/// spring of eq. 5) is the gradient of its energy only after this.
+template <typename Sample, typename Scalar>
+WCH_INLINE void smoothDifferencesAdjoint(const Sample* g, int count, Scalar beta, Sample* dedge) {
+  if (count < 2) return;
+  const Scalar f1 = 2.0 * (1.0 - beta);
+  const Scalar f2 = (1.0 - beta) * (1.0 - beta);
+  const Scalar f3 = beta * beta;
+  Sample a1 = g[0] - g[0], a2 = a1;  // a_{i+1}, a_{i+2}
+  for (int i = count - 2; i >= 0; --i) {
+    const Sample a = g[i] + f1 * a1 - f2 * a2;
+    dedge[i] = f3 * a;
+    if (i == 0) dedge[0] = dedge[0] + (f1 - f2) * a - f2 * a1;
+    a2 = a1;
+    a1 = a;
+  }
+}
+
 /// Eq. (3): the smoothed curve p'_0 = lambda_0, p'_i = p'_{i-1} + d_{i-1}.
 WCH_INLINE void rebuildCurve(const Vec3& root, const Vec3* d, int count, Vec3* curve) {
   if (count < 1) return;

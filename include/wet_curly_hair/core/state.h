@@ -28,6 +28,9 @@ struct StrandScratch {
   Vec3List smooth_bend;  ///< d of eq. (2) for alpha_b, per edge.
   Vec3List smooth_core;  ///< b of eq. (5), per edge.
   Mat3List frame;        ///< per edge.
+  /// One lane's positions, the force through the frames and its adjoint (BendConfig::
+  /// frame_gradient; with smooth_bend and frame).
+  Vec3List bend_p, bend_force, bend_adjoint;
   /// Eq. (13) velocity factor per particle for the current strand and substep length (the
   /// saturation is constant within a step): computed once per strand and step, not per substep.
   std::vector<double> velocity_factor;
