@@ -439,6 +439,27 @@ int tangleCount(const HairModel& model, const Vec3List& points, double strand_ra
   return static_cast<int>(std::lround(double(strands) * double(degrees) / (2.0 * sampled)));
 }
 
+double headPenetration(const HairModel& model, const Vec3List& points, const Pose& head_pose,
+                       int threads) {
+  auto strandWorst = [&](int s) {
+    double worst = 0.0;
+    for (int i = model.strandBegin(s) + 1; i < model.strandBegin(s) + model.strandSize(s); ++i) {
+      Vec3 n;
+      worst = std::max(worst, -model.head.distance(head_pose.applyInverse(points[i]), &n));
+    }
+    return worst;
+  };
+  double worst = 0.0;
+  const int strands = model.strandCount();
+  if (threads <= 1) {  // a plain loop: no OpenMP team to make
+    for (int s = 0; s < strands; ++s) worst = std::max(worst, strandWorst(s));
+    return worst;
+  }
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : worst)
+  for (int s = 0; s < strands; ++s) worst = std::max(worst, strandWorst(s));
+  return worst;
+}
+
 CurlShape tipCurlShape(const HairModel& model, const Vec3List& points) {
   CurlShape out;
   int strands = 0;

@@ -350,7 +350,7 @@ class FrameMeasurements {
     }
     timed(kMeasureStrain, [&] { recordStrain(f, edgeStrain(model_, *state), s); });
     timed(kMeasureHeadPenetration, [&] {
-      const double head_pen = maxHeadPenetration(model_, *state, pose);
+      const double head_pen = headPenetration(model_, state->position, pose, threads_);
       s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
       if (f >= 1)
         s->max_head_penetration_after_first_step_m =

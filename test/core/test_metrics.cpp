@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/metrics.h"
 
 using namespace wet_curly_hair;
@@ -203,4 +204,42 @@ TEST(Metrics, CrossingStrandsAnalytic) {
   EXPECT_NEAR(clumpDistance(m, p, sat, 0.05, &scratch), d, 1e-15);
   // Beyond the search radius: the radius.
   EXPECT_NEAR(clumpDistance(m, p, sat, 0.004, &scratch), 0.004, 1e-15);
+}
+
+TEST(Metrics, HeadPenetrationOnThreadsEqualsTheDiagnostic) {
+  // Strands around a turned, moved head: particles outside the ellipsoid (some in the neck),
+  // one particle of one strand deeper inside; the roots at the centre, deeper still, do not
+  // count.
+  const int strands = 40, n = 8;
+  HairModel m = strandsOnly(std::vector<int>(strands, n));
+  CapsuleShape neck;
+  neck.a_m = Vec3(-0.01, 0, -0.06);
+  neck.b_m = Vec3(-0.02, 0, -0.25);
+  neck.radius_m = 0.055;
+  m.head.capsules = {neck};
+  Pose pose;
+  pose.rotation = Quat(Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()));
+  pose.translation = Vec3(0.3, -0.1, 1.2);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  HairState state;
+  for (int s = 0; s < strands; ++s) {
+    for (int i = 0; i < n; ++i) {
+      Vec3 x = Vec3::Zero();
+      while (i > 0 && x.norm() < 0.12) x = Vec3(u(rng), u(rng), u(rng));
+      state.position.push_back(pose.apply(x));
+    }
+  }
+  MetricScratch unused;
+  for (int deepest : {5 * n + 3, 22 * n + 7, 39 * n + 1}) {
+    Vec3List p = state.position;
+    p[deepest] = pose.apply(Vec3(0.001, 0.002, 0.06));  // 5 cm below the crown
+    HairState at = state;
+    at.position = p;
+    const double expected = maxHeadPenetration(m, at, pose);
+    ASSERT_GT(expected, 0.04);
+    ASSERT_LT(expected, 0.07);  // a root at the centre is 7.8 cm deep
+    for (int threads : {1, 2, 3})
+      EXPECT_EQ(headPenetration(m, p, pose, threads), expected) << deepest << " " << threads;
+  }
 }

@@ -62,6 +62,12 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
 int tangleCount(const HairModel& model, const Vec3List& points, double strand_radius_m,
                 MetricScratch* scratch, int threads = 1, int strand_stride = 1);
 
+/// Deepest penetration (m, >= 0) of a non-root particle at `points` (world) into the head at
+/// head_pose: maxHeadPenetration of diagnostics.h, with the strands shared among `threads`
+/// threads (the same distances; their maximum is the same in any order).
+double headPenetration(const HairModel& model, const Vec3List& points, const Pose& head_pose,
+                       int threads = 1);
+
 /// Curl radius and rise per turn (m) of a polyline from its discrete curvature kappa and torsion
 /// tau: a helix has r = kappa / (kappa^2 + tau^2), pitch = 2 pi tau / (kappa^2 + tau^2).
 struct CurlShape {
