@@ -325,7 +325,8 @@ class FrameMeasurements {
                            : 1),
         out_prev2_(model.particleCount()),
         out_prev1_(model.particleCount()),
-        contact_time_(model.strandCount(), 0.0) {}
+        contact_time_(model.strandCount(), 0.0),
+        jitter_strand_(model.strandCount(), 0.0) {}
 
   /// Runs fn as measurement m, timed.
   template <typename Fn>
@@ -470,17 +471,32 @@ class FrameMeasurements {
           std::max(s->max_obstacle_penetration_after_first_step_m, pen);
   }
 
-  /// Output positions in the head frame, three frames kept: RMS second difference.
+  /// Output positions in the head frame, three frames kept: RMS second difference. Strands on
+  /// the solver's threads, each summing its own particles; the strand sums are added in strand
+  /// order, so any thread count gives the same value.
   void measureJitter(long f, const HairState& state, const Pose& pose) {
-    for (int i = 0; i < model_.particleCount(); ++i) {
-      const Vec3 x = pose.applyInverse(state.wet_position[i]);
-      if (f >= 2) {
-        jitter_sum_ += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
-        ++jitter_count_;
+    const Mat3 to_head = pose.rotation.conjugate().toRotationMatrix();
+    auto strand = [&](int st) {
+      double sum = 0.0;
+      for (int i = model_.strandBegin(st); i < model_.strandBegin(st) + model_.strandSize(st);
+           ++i) {
+        const Vec3 x = to_head * (state.wet_position[i] - pose.translation);
+        if (f >= 2) sum += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
+        out_prev2_[i] = out_prev1_[i];
+        out_prev1_[i] = x;
       }
-      out_prev2_[i] = out_prev1_[i];
-      out_prev1_[i] = x;
+      jitter_strand_[st] = sum;
+    };
+    const int strands = model_.strandCount();
+    if (threads_ <= 1) {
+      for (int st = 0; st < strands; ++st) strand(st);
+    } else {
+#pragma omp parallel for num_threads(threads_) schedule(static)
+      for (int st = 0; st < strands; ++st) strand(st);
     }
+    if (f < 2) return;
+    for (double v : jitter_strand_) jitter_sum_ += v;
+    jitter_count_ += model_.particleCount();
   }
 
   const SceneConfig& scene_;
@@ -494,6 +510,7 @@ class FrameMeasurements {
   double jitter_sum_ = 0.0;
   long jitter_count_ = 0;
   std::vector<double> contact_time_;
+  std::vector<double> jitter_strand_;  ///< this frame's sum per strand
   MetricScratch scratch_;
   long recorded_frames_ = 0;
   double spent_s_[kMeasurementCount] = {};

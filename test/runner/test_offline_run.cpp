@@ -370,3 +370,32 @@ TEST(OfflineRun, RigidMotionFromMassMomentsEqualsTheSumOverParticles) {
   scene.motion.axis = Vec3(1.0, 0.0, 1.0).normalized();
   expectRigidMotionOfParticles(scene);
 }
+
+TEST(OfflineRun, JitterIsTheRmsSecondDifferenceForAnyThreadCount) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 12;
+  scene.run.seconds = 0.2;
+  // The second difference of the output positions in the head frame, from the frames.
+  std::vector<Vec3List> frames;
+  RunOptions options;
+  options.on_frame = [&](int f, const HairState& state) {
+    const Pose pose = headPose(scene.motion, f * scene.run.frame_s);
+    Vec3List x(state.wet_position.size());
+    for (size_t i = 0; i < x.size(); ++i) x[i] = pose.applyInverse(state.wet_position[i]);
+    frames.push_back(x);
+  };
+  RunSummary one, two;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &one, &why)) << why;
+  double sum = 0.0;
+  long count = 0;
+  for (size_t f = 2; f < frames.size(); ++f)
+    for (size_t i = 0; i < frames[f].size(); ++i, ++count)
+      sum += (frames[f][i] - 2.0 * frames[f - 1][i] + frames[f - 2][i]).squaredNorm();
+  ASSERT_GT(sum, 0.0);
+  EXPECT_NEAR(one.jitter_m, std::sqrt(sum / count), 1e-9 * one.jitter_m);
+  scene.solver.integrator.threads = 2;
+  options.on_frame = nullptr;
+  ASSERT_TRUE(runScene(scene, options, &two, &why)) << why;
+  EXPECT_EQ(two.jitter_m, one.jitter_m);
+}

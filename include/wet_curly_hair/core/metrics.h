@@ -63,8 +63,9 @@ int tangleCount(const HairModel& model, const Vec3List& points, double strand_ra
                 MetricScratch* scratch, int threads = 1, int strand_stride = 1);
 
 /// Deepest penetration (m, >= 0) of a non-root particle at `points` (world) into the head at
-/// head_pose: maxHeadPenetration of diagnostics.h, with the strands shared among `threads`
-/// threads (the same distances; their maximum is the same in any order).
+/// head_pose: maxHeadPenetration of diagnostics.h (equal up to rounding: the same distance
+/// function, on four particles at a time in double lanes), the strands shared among `threads`
+/// threads (the maximum is the same for any count).
 double headPenetration(const HairModel& model, const Vec3List& points, const Pose& head_pose,
                        int threads = 1);
 
