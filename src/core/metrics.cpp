@@ -441,6 +441,41 @@ int tangleCount(const HairModel& model, const Vec3List& points, double strand_ra
   return static_cast<int>(std::lround(double(strands) * double(degrees) / (2.0 * sampled)));
 }
 
+LengthStats lengthStats(const HairModel& model, const Vec3List& points, MetricScratch* scratch,
+                        int threads) {
+  const int strands = model.strandCount();
+  std::vector<double>& part = scratch->per_strand;
+  if (part.size() < 3 * static_cast<size_t>(strands)) part.resize(3 * strands);
+  parallelFor(threads, Schedule::kStatic, 0, strands, [&](int s) {
+    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+    double max_strain = 0.0, abs_sum = 0.0, arc = 0.0;
+    for (int i = begin; i + 1 < end; ++i) {
+      const double l = (points[i + 1] - points[i]).norm();
+      const double strain = l / model.rest_edge_m[i] - 1.0;
+      max_strain = std::max(max_strain, strain);
+      abs_sum += std::abs(strain);
+      arc += l;
+    }
+    part[3 * s] = max_strain;
+    part[3 * s + 1] = abs_sum;
+    part[3 * s + 2] = arc / model.strand_length_m[s] - 1.0;
+  });
+  LengthStats out;
+  out.max_extension = -std::numeric_limits<double>::infinity();
+  double abs_sum = 0.0, ext_sum = 0.0;
+  long edges = 0;
+  for (int s = 0; s < strands; ++s) {
+    out.max_strain = std::max(out.max_strain, part[3 * s]);
+    abs_sum += part[3 * s + 1];
+    out.max_extension = std::max(out.max_extension, part[3 * s + 2]);
+    ext_sum += part[3 * s + 2];
+    edges += std::max(0, model.strandSize(s) - 1);
+  }
+  out.mean_strain = edges ? abs_sum / edges : 0.0;
+  out.mean_extension = strands ? ext_sum / strands : 0.0;
+  return out;
+}
+
 double headPenetration(const HairModel& model, const Vec3List& points, const Pose& head_pose,
                        int threads) {
   // Four particles at a time in double lanes (the distance is a handful of divisions and square

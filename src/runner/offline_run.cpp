@@ -111,9 +111,8 @@ std::string RunSummary::toJson() const {
 
 const char* measurementName(Measurement m) {
   static const char* const kNames[kMeasurementCount] = {
-      "rigid_motion",   "energy",    "strain",    "head_penetration",
-      "extension",      "obstacles", "jitter",    "tangle_series",
-      "clump_distance", "tangles",   "curl_shape"};
+      "rigid_motion", "energy",        "strain",         "head_penetration", "obstacles",
+      "jitter",       "tangle_series", "clump_distance", "tangles",          "curl_shape"};
   return m >= 0 && m < kMeasurementCount ? kNames[m] : "";
 }
 
@@ -349,7 +348,12 @@ class FrameMeasurements {
         s->max_speed_m_s.push_back(maxSpeed(model_, *state));
       });
     }
-    timed(kMeasureStrain, [&] { recordStrain(f, edgeStrain(model_, *state), s); });
+    // Strain and extension are one pass over the edges (lengthStats), timed as "strain".
+    timed(kMeasureStrain, [&] {
+      const LengthStats lengths = lengthStats(model_, state->position, &scratch_, threads_);
+      recordStrain(f, lengths, s);
+      recordExtension(f, lengths, s);
+    });
     timed(kMeasureHeadPenetration, [&] {
       const double head_pen = headPenetration(model_, state->position, pose, threads_);
       s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
@@ -357,7 +361,6 @@ class FrameMeasurements {
         s->max_head_penetration_after_first_step_m =
             std::max(s->max_head_penetration_after_first_step_m, head_pen);
     });
-    timed(kMeasureExtension, [&] { measureExtension(f, *state, s); });
     timed(kMeasureObstacles, [&] { measureObstacles(f, *state, s); });
     timed(kMeasureJitter, [&] { measureJitter(f, *state, pose); });
     if (options_.tangle_series && f % options_.tangle_series_stride == 0) {
@@ -419,34 +422,25 @@ class FrameMeasurements {
   }
 
  private:
-  void recordStrain(long f, const StrainStats& strain, RunSummary* s) {
-    s->max_strain = std::max(s->max_strain, strain.max);
-    s->mean_strain += strain.mean;
+  void recordStrain(long f, const LengthStats& l, RunSummary* s) {
+    s->max_strain = std::max(s->max_strain, l.max_strain);
+    s->mean_strain += l.mean_strain;
     if (f == 0) {
-      s->max_strain_start = strain.max;
-      s->mean_strain_start = strain.mean;
+      s->max_strain_start = l.max_strain;
+      s->mean_strain_start = l.mean_strain;
     }
-    s->max_strain_end = strain.max;
-    s->mean_strain_end = strain.mean;
+    s->max_strain_end = l.max_strain;
+    s->mean_strain_end = l.mean_strain;
   }
 
-  /// Per strand: arc length over rest length (largest and mean extension).
-  void measureExtension(long f, const HairState& state, RunSummary* s) {
-    double extension = -std::numeric_limits<double>::infinity(), ext_sum = 0.0;
-    for (int st = 0; st < model_.strandCount(); ++st) {
-      const int b = model_.strandBegin(st), n = model_.strandSize(st);
-      double arc = 0.0;
-      for (int i = b; i + 1 < b + n; ++i) arc += (state.position[i + 1] - state.position[i]).norm();
-      extension = std::max(extension, arc / model_.strand_length_m[st] - 1.0);
-      ext_sum += arc / model_.strand_length_m[st] - 1.0;
-    }
-    s->max_strand_extension = std::max(s->max_strand_extension, extension);
+  void recordExtension(long f, const LengthStats& l, RunSummary* s) {
+    s->max_strand_extension = std::max(s->max_strand_extension, l.max_extension);
     if (f == 0) {
-      s->max_strand_extension_start = extension;
-      s->mean_strand_extension_start = ext_sum / model_.strandCount();
+      s->max_strand_extension_start = l.max_extension;
+      s->mean_strand_extension_start = l.mean_extension;
     }
-    s->max_strand_extension_end = extension;
-    s->mean_strand_extension_end = ext_sum / model_.strandCount();
+    s->max_strand_extension_end = l.max_extension;
+    s->mean_strand_extension_end = l.mean_extension;
   }
 
   /// Per strand: the deepest obstacle penetration and the time within the adhesion band of an

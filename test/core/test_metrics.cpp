@@ -246,3 +246,41 @@ TEST(Metrics, HeadPenetrationOnThreadsEqualsTheDiagnostic) {
           << deepest << " " << threads;
   }
 }
+
+TEST(Metrics, LengthStatsEqualEdgeStrainAndTheArcLengths) {
+  RandomGroom g(37, 9, 0.008, 0.01, 11);
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(0.9, 1.1);
+  // Rest edges within 10 % of the current ones: strains of both signs.
+  g.model.rest_edge_m.assign(g.points.size(), 0.0);
+  g.model.strand_length_m.assign(g.model.strandCount(), 0.0);
+  for (int s = 0; s < g.model.strandCount(); ++s) {
+    for (int i = g.model.strandBegin(s); i + 1 < g.model.strandBegin(s) + g.model.strandSize(s);
+         ++i) {
+      g.model.rest_edge_m[i] = u(rng) * (g.points[i + 1] - g.points[i]).norm();
+      g.model.strand_length_m[s] += g.model.rest_edge_m[i];
+    }
+  }
+  HairState state;
+  state.position = g.points;
+  const StrainStats strain = edgeStrain(g.model, state);
+  double max_ext = -1e300, ext_sum = 0.0;
+  for (int s = 0; s < g.model.strandCount(); ++s) {
+    double arc = 0.0;
+    for (int i = g.model.strandBegin(s); i + 1 < g.model.strandBegin(s) + g.model.strandSize(s);
+         ++i)
+      arc += (g.points[i + 1] - g.points[i]).norm();
+    max_ext = std::max(max_ext, arc / g.model.strand_length_m[s] - 1.0);
+    ext_sum += arc / g.model.strand_length_m[s] - 1.0;
+  }
+  ASSERT_GT(strain.max, 0.0);
+  ASSERT_LT(max_ext, 0.1);
+  MetricScratch scratch;
+  for (int threads : {1, 2}) {
+    const LengthStats l = lengthStats(g.model, g.points, &scratch, threads);
+    EXPECT_EQ(l.max_strain, strain.max);
+    EXPECT_NEAR(l.mean_strain, strain.mean, 1e-15);
+    EXPECT_EQ(l.max_extension, max_ext);
+    EXPECT_EQ(l.mean_extension, ext_sum / g.model.strandCount());
+  }
+}

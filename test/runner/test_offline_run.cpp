@@ -240,9 +240,9 @@ TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
   RunSummary s;
   std::string why;
   ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
-  const std::vector<std::string> defaults = {
-      "rigid_motion", "energy", "strain",         "head_penetration", "extension",
-      "obstacles",    "jitter", "clump_distance", "tangles",          "curl_shape"};
+  const std::vector<std::string> defaults = {"rigid_motion",     "energy",    "strain",
+                                             "head_penetration", "obstacles", "jitter",
+                                             "clump_distance",   "tangles",   "curl_shape"};
   EXPECT_EQ(s.measurements, defaults);
   ASSERT_EQ(s.measurement_s.size(), defaults.size());
   double sum = 0.0;

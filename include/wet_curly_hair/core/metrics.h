@@ -31,7 +31,8 @@ struct MetricScratch {
   std::vector<float> box, entry_box;
   std::vector<uint8_t> segment_kind;
   std::vector<uint32_t> long_segments;
-  std::vector<double> nearest;  ///< clumpDistance: per particle, the distance found.
+  std::vector<double> nearest;     ///< clumpDistance: per particle, the distance found.
+  std::vector<double> per_strand;  ///< lengthStats: per strand, 3 partial results.
 };
 
 /// Mean distance (m) from each wet particle's position in `points` (saturation > 0) to the
@@ -61,6 +62,21 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
 /// more of the others as they crowd).
 int tangleCount(const HairModel& model, const Vec3List& points, double strand_radius_m,
                 MetricScratch* scratch, int threads = 1, int strand_stride = 1);
+
+/// Edge strain and strand extension of `points` in one pass over the edges, the strands shared
+/// among `threads` threads.
+struct LengthStats {
+  double max_strain = 0.0;      ///< largest (L - L0) / L0 over the edges, and 0 (edgeStrain's max)
+  double mean_strain = 0.0;     ///< mean |(L - L0) / L0| over the edges (edgeStrain's mean)
+  double max_extension = 0.0;   ///< largest arc length / rest length - 1 over the strands
+  double mean_extension = 0.0;  ///< its mean over the strands
+};
+/// edgeStrain (diagnostics.h) and the strands' arc-length extension. The maxima and the mean
+/// extension are the same as summed in order to the last bit; the mean strain sums each strand's
+/// edges, then the strands in order (the same value for any thread count, equal to edgeStrain's
+/// up to rounding). Uses scratch->per_strand.
+LengthStats lengthStats(const HairModel& model, const Vec3List& points, MetricScratch* scratch,
+                        int threads = 1);
 
 /// Deepest penetration (m, >= 0) of a non-root particle at `points` (world) into the head at
 /// head_pose: maxHeadPenetration of diagnostics.h (equal up to rounding: the same distance

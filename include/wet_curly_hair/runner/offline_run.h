@@ -25,7 +25,7 @@ struct RunOptions {
   /// jitter, tangle series): only the step runs. The end-of-run ones follow their own flags.
   bool measure = true;
   /// The tangle count every tangle_series_stride frames (RunSummary::max_tangles); opt-in
-  /// (runner --tangle-series [N]): a full count costs about a frame of stepping at 10,000 strands.
+  /// (runner --tangle-series N): one count costs about as much as a frame of stepping.
   bool tangle_series = false;
   int tangle_series_stride = 10;
   /// End of the run: clump distance (--no-clump-distance) and the two tangle counts
@@ -37,7 +37,7 @@ struct RunOptions {
   /// (clumpDistance, tangleCount; runner --sample-strands N). 0: every strand, exact at any
   /// size (a tangle count then costs about as much as several frames of stepping at 10,000
   /// strands on one scalp, and grows with the square of the strand count).
-  int sample_strands = 1000;
+  int sample_strands = 500;
   /// Frames that are written hold the output positions (p^w under "ours" cohesion).
   /// Scripted saturation changes: each sets a root-to-tip ramp on every particle of every strand
   /// (applySaturation) before the first frame that starts at or after time_s (runner
@@ -61,9 +61,8 @@ struct RunOptions {
 enum Measurement {
   kMeasureRigidMotion,      ///< before the run: rigid_*, head_peak_reach_speed, hair_mass
   kMeasureEnergy,           ///< energy, kinetic_energy, max_speed_m_s, time_s (series)
-  kMeasureStrain,           ///< max_strain, mean_strain and their _start/_end
+  kMeasureStrain,           ///< max_strain, mean_strain, max_strand_extension, their _start/_end
   kMeasureHeadPenetration,  ///< max_penetration_m, max_head_penetration_after_first_step_m
-  kMeasureExtension,        ///< max_strand_extension and the _start/_end extensions
   kMeasureObstacles,        ///< obstacle penetration and obstacle_contact_s
   kMeasureJitter,           ///< jitter
   kMeasureTangleSeries,     ///< max_tangles over the sampled frames (opt-in)
