@@ -445,19 +445,30 @@ class FrameMeasurements {
 
   /// Per strand: the deepest obstacle penetration and the time within the adhesion band of an
   /// obstacle.
+  /// Strands on the solver's threads (each writes its own contact time; the maximum is the same
+  /// in any order).
   void measureObstacles(long f, const HairState& state, RunSummary* s) {
     if (obstacles_.empty()) return;
-    double pen = 0.0;
-    for (int st = 0; st < model_.strandCount(); ++st) {
+    auto strand = [&](int st) {
       const int b = model_.strandBegin(st), n = model_.strandSize(st);
       bool touching = false;
+      double worst = 0.0;
       for (int i = b + 1; i < b + n; ++i) {
         Vec3 normal;
         const double dist = obstacles_.distance(state.position[i], &normal);
         touching = touching || dist <= scene_.solver.adhesion.radius_m;
-        pen = std::max(pen, -dist);
+        worst = std::max(worst, -dist);
       }
       if (touching && f > 0) contact_time_[st] += scene_.run.frame_s;
+      return worst;
+    };
+    double pen = 0.0;
+    const int strands = model_.strandCount();
+    if (threads_ <= 1) {
+      for (int st = 0; st < strands; ++st) pen = std::max(pen, strand(st));
+    } else {
+#pragma omp parallel for num_threads(threads_) schedule(static) reduction(max : pen)
+      for (int st = 0; st < strands; ++st) pen = std::max(pen, strand(st));
     }
     s->max_obstacle_penetration_m = std::max(s->max_obstacle_penetration_m, pen);
     if (f >= 1)

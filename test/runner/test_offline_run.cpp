@@ -399,3 +399,46 @@ TEST(OfflineRun, JitterIsTheRmsSecondDifferenceForAnyThreadCount) {
   ASSERT_TRUE(runScene(scene, options, &two, &why)) << why;
   EXPECT_EQ(two.jitter_m, one.jitter_m);
 }
+
+TEST(OfflineRun, ObstacleFiguresOnThreadsEqualThoseOfTheFrames) {
+  // Wet hair sliding past a sphere (the benchmark's obstacle_slide): contact and penetration.
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 24;
+  scene.run.seconds = 0.3;
+  scene.saturation.root = scene.saturation.tip = 1.0;
+  scene.solver.integrator.threads = 2;
+  AnalyticObstacle sphere;
+  std::string why;
+  ASSERT_TRUE(AnalyticObstacle::parse("sphere:x=-0.04,y=0,z=0.22,r=0.06", &sphere, &why)) << why;
+  scene.obstacles = {sphere};
+  HairModel model;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why)) << why;
+  Obstacles obstacles;
+  obstacles.analytic = scene.obstacles;
+  double worst = 0.0;
+  std::vector<double> contact(model.strandCount(), 0.0);
+  RunOptions options;
+  options.on_frame = [&](int f, const HairState& state) {
+    for (int st = 0; st < model.strandCount(); ++st) {
+      bool touching = false;
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st);
+           ++i) {
+        Vec3 n;
+        const double d = obstacles.distance(state.position[i], &n);
+        touching = touching || d <= scene.solver.adhesion.radius_m;
+        worst = std::max(worst, -d);
+      }
+      if (touching && f > 0) contact[st] += scene.run.frame_s;
+    }
+  };
+  RunSummary s;
+  ASSERT_TRUE(runScene(scene, options, &s, &why)) << why;
+  double sum = 0.0;
+  int touched = 0;
+  for (double c : contact)
+    if (c > 0.0) sum += c, ++touched;
+  ASSERT_GT(touched, 0);
+  ASSERT_GT(worst, 0.0);
+  EXPECT_EQ(s.max_obstacle_penetration_m, worst);
+  EXPECT_EQ(s.obstacle_contact_s, sum / touched);
+}
