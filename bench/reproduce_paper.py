@@ -67,23 +67,23 @@ def main():
     lines += ["### Curl exaggeration (Figs. 4, 8)", "",
               "Saturation ramp 0 at the roots to 1 at the tips; still head; wet helix r = 6 mm, "
               "rise 18 mm per turn; groom r = 10 mm, rise 30 mm.", "",
-              "| case | curl weight (N/m) | tip curl radius (mm) | tip rise per turn (mm) | max strain |",
+              "| case | curl weight W (N) | tip curl radius (mm) | tip rise per turn (mm) | max strain |",
               "|---|---|---|---|---|"]
-    cases = [("dry", "0,0", 25.0)] + [("wet", "0,1", w) for w in ([25.0] if short else [5.0, 15.0, 25.0, 40.0])]
+    cases = [("dry", "0,0", 0.2)] + [("wet", "0,1", w) for w in ([0.2] if short else [0.04, 0.12, 0.2, 0.32])]
     if not short:
-        cases.append(("wet literal eq. 9", "0,1", 25.0))
+        cases.append(("wet literal eq. 9", "0,1", 0.2))
     for label, sat, w in cases:
         name = "curl_%s_%g%s" % (label.split()[0], w, "_literal" if "literal" in label else "")
-        extra = ["--saturation", sat, "--set", "solver.curl.weight_n_per_m=%g" % w]
+        extra = ["--saturation", sat, "--set", "solver.curl.weight_n=%g" % w]
         if "literal" in label:
             extra += ["--set", "solver.curl.mode=literal"]
-        frames = os.path.join(tmp, name) if (not short and w == 25.0) else None
+        frames = os.path.join(tmp, name) if (not short and w == 0.2) else None
         d = runner(name, "curl.yaml", *extra, frames_dir=frames, seconds=curl_seconds)
         lines.append("| %s | %g | %.2f | %.1f | %.3f |" % (label, w, 1e3 * d["curl_radius_tip_m"],
                                                       1e3 * d["curl_pitch_tip_m"], d["max_strain"]))
         if frames:
             sheet("curl_" + label.split()[0] + ("_literal" if "literal" in label else ""), frames, "--head")
-    dry, wet = results["curl_dry_25"], results["curl_wet_25"]
+    dry, wet = results["curl_dry_0.2"], results["curl_wet_0.2"]
     checks.append(("wet tips curl tighter (smaller radius)",
                    wet["curl_radius_tip_m"] < dry["curl_radius_tip_m"]))
 
@@ -100,7 +100,7 @@ def main():
     # Baselines at their default strength (calibrated to clump the still scene about as much as
     # ours) and 5x stronger.
     modes = [("off", []), ("ours", []), ("lin", []), ("kim", []),
-             ("lin x5", ["--set", "solver.cohesion.lin_stiffness_n_per_m=0.02"]),
+             ("lin x5", ["--set", "solver.cohesion.lin_stiffness_n_per_m3=300"]),
              ("kim x5", ["--set", "solver.cohesion.kim_surface_tension=1.5"])]
     if not strong:
         modes = modes[:4]

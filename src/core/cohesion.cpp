@@ -227,7 +227,10 @@ int computeCohesionForces(const HairModel& model, const CohesionConfig& c, HairS
             const double s = std::min(state->saturation[i], state->saturation[j]);
             const double r = std::sqrt(r2);
             if (s <= 0.0 || r < 1e-12) return;
-            f[i] += (c.lin_stiffness_n_per_m * s * (r - rest) / r) * (p[j] - p[i]);
+            // Per length (docs/physics.md §2.11): the pair stands for l_i l_j of strand.
+            const double k =
+                c.lin_stiffness_n_per_m3 * model.length_share_m[i] * model.length_share_m[j];
+            f[i] += (k * s * (r - rest) / r) * (p[j] - p[i]);
           });
     }
   } else {

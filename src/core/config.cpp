@@ -68,40 +68,26 @@ bool oneOf(const std::string& name, const std::string& value,
 }  // namespace
 
 bool StretchConfig::validate(const std::string& p, std::string* why) const {
-  return positive(p + "stiffness_n_per_m", stiffness_n_per_m, why) &&
+  return finiteInRange(p + "axial_stiffness_n", axial_stiffness_n, 1e-9, 1e9, why) &&
          oneOf(p + "limit_velocity", limit_velocity, {"displacement", "inelastic"}, why) &&
-         nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) &&
+         finiteInRange(p + "damping_n_s", damping_n_s, 0.0, 1e6, why) &&
          finiteInRange(p + "strain_limit", strain_limit, 1e-4, 1.0, why) &&
          finiteInRange(p + "strain_rate_limit_per_substep", strain_rate_limit_per_substep, 1e-5,
                        1.0, why);
 }
 
+// The flutter bounds on alpha_b and c_b depend on the resolution: buildModel applies them per
+// strand (docs/physics.md §10.15), so any non-negative value is valid here.
 bool BendConfig::validate(const std::string& p, std::string* why) const {
-  if (!nonNegative(p + "stiffness_n_per_m", stiffness_n_per_m, why) ||
-      !nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) ||
-      !finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why))
-    return false;
-  // Bending switched off (k_b = 0) is a valid, calm model; when it is on, the follower-like force
-  // needs enough smoothing and stiffness to settle (docs/physics.md §10.15; measured bound in
-  // docs/physics.md §2.6).
-  if (stiffness_n_per_m > 0.0) {
-    if (smoothing_edges < kMinBendSmoothingEdges) {
-      if (why) {
-        std::ostringstream s;
-        s << p << "smoothing_edges: " << smoothing_edges << " is below " << kMinBendSmoothingEdges
-          << " edge lengths, where the bending spring self-excites (flutter) at any step size";
-        *why = s.str();
-      }
-      return false;
-    }
-  }
-  return true;
+  return finiteInRange(p + "stiffness_n_m2", stiffness_n_m2, 0.0, 1e6, why) &&
+         finiteInRange(p + "damping_n_s", damping_n_s, 0.0, 1e6, why) &&
+         finiteInRange(p + "smoothing_length_m", smoothing_length_m, 0.0, 10.0, why);
 }
 
 bool CoreSpringConfig::validate(const std::string& p, std::string* why) const {
-  return nonNegative(p + "stiffness_n_per_m", stiffness_n_per_m, why) &&
-         nonNegative(p + "damping_ns_per_m", damping_ns_per_m, why) &&
-         finiteInRange(p + "smoothing_edges", smoothing_edges, 0.0, 1e3, why);
+  return finiteInRange(p + "stiffness_n", stiffness_n, 0.0, 1e9, why) &&
+         finiteInRange(p + "damping_n_s", damping_n_s, 0.0, 1e6, why) &&
+         finiteInRange(p + "smoothing_length_m", smoothing_length_m, 0.0, 10.0, why);
 }
 
 bool CollisionConfig::validate(const std::string& p, std::string* why) const {
@@ -138,7 +124,7 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
 
 bool CurlConfig::validate(const std::string& p, std::string* why) const {
   return oneOf(p + "mode", mode, {"spring", "literal"}, why) &&
-         finiteInRange(p + "weight_n_per_m", weight_n_per_m, 0.0, 1e5, why) &&
+         finiteInRange(p + "weight_n", weight_n, 0.0, 1e5, why) &&
          finiteInRange(p + "helix_radius_m", helix_radius_m, 0.0, 1.0, why) &&
          finiteInRange(p + "helix_pitch_m", helix_pitch_m, 0.0, 10.0, why) &&
          finiteInRange(p + "rotation_time_constant_s", rotation_time_constant_s, 0.0, 100.0, why) &&
@@ -150,7 +136,7 @@ bool CohesionConfig::validate(const std::string& p, std::string* why) const {
   return oneOf(p + "mode", mode, {"ours", "lin", "kim", "off"}, why) &&
          finiteInRange(p + "tightness", tightness, 0.0, 1.0, why) &&
          finiteInRange(p + "radius_m", radius_m, 1e-4, 1.0, why) &&
-         finiteInRange(p + "lin_stiffness_n_per_m", lin_stiffness_n_per_m, 0.0, 1e5, why) &&
+         finiteInRange(p + "lin_stiffness_n_per_m3", lin_stiffness_n_per_m3, 0.0, 1e9, why) &&
          finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why) &&
          oneOf(p + "evaluation", evaluation, {"exact", "grid"}, why) &&
          finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why);
@@ -186,10 +172,10 @@ bool SolverConfig::validate(const std::string& p, std::string* why) const {
   if (!parts_ok) return false;
   // sag_free: the bending spring is the only one that carries weight across an edge
   // (sag_free.cpp).
-  if (sag_free && gravity_m_s2.squaredNorm() > 0.0 && !(bend.stiffness_n_per_m > 0.0)) {
+  if (sag_free && gravity_m_s2.squaredNorm() > 0.0 && !(bend.stiffness_n_m2 > 0.0)) {
     if (why)
       *why = p + "sag_free: needs " + p +
-             "bend.stiffness_n_per_m > 0 under gravity (the bending "
+             "bend.stiffness_n_m2 > 0 under gravity (the bending "
              "spring carries the weight across the edges)";
     return false;
   }

@@ -59,12 +59,10 @@ EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pos
     smoothDifferences(p, n, model.beta_core[s], scr.smooth_core.data());
     for (int i = 0; i + 1 < n; ++i) {
       const Vec3 edge = p[i + 1] - p[i];
-      e.stretch +=
-          stretchEnergy(edge, model.rest_edge_m[begin + i], config.stretch.stiffness_n_per_m);
-      e.bend += bendEnergy(edge, scr.frame[i] * model.bend_local_target[begin + i],
-                           config.bend.stiffness_n_per_m);
-      e.core += coreEnergy(scr.smooth_core[i], model.core_rest_m[begin + i],
-                           config.core.stiffness_n_per_m);
+      e.stretch += stretchEnergy(edge, model.rest_edge_m[begin + i], model.stretch_k[begin + i]);
+      e.bend +=
+          bendEnergy(edge, scr.frame[i] * model.bend_local_target[begin + i], model.bend_k[s]);
+      e.core += coreEnergy(scr.smooth_core[i], model.core_rest_m[begin + i], model.core_k[s]);
     }
   }
   return e;

@@ -66,7 +66,7 @@ bool GroomConfig::validate(const std::string& p, std::string* why) const {
       !finiteInRange(p + "curl_radius_m", curl_radius_m, 0.0, 1.0, why) ||
       !finiteInRange(p + "curl_pitch_m", curl_pitch_m, 0.0, 10.0, why) ||
       !finiteInRange(p + "jitter", jitter, 0.0, 0.5, why) ||
-      !positive(p + "particle_mass_kg", particle_mass_kg, why) ||
+      !finiteInRange(p + "linear_density_kg_per_m", linear_density_kg_per_m, 1e-9, 1e3, why) ||
       !finiteInRange(p + "scalp_half_angle_deg", scalp_half_angle_deg, 0.0, 180.0, why) ||
       !finiteVec(p + "scalp_axis", scalp_axis, why))
     return false;

@@ -27,53 +27,45 @@ bool HeadShape::validate(const std::string& p, std::string* why) const {
   return true;
 }
 
-bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& head,
+bool buildModel(const Groom& groom, double linear_density_kg_per_m, const HeadShape& head,
                 const SolverConfig& config, HairModel* model, std::string* why) {
   if (!groom.validate(why)) return false;
   if (!config.validate("solver.", why)) return false;
   if (!head.validate("head.", why)) return false;
-  if (!config_check::positive("groom.particle_mass_kg", particle_mass_kg, why)) return false;
-  const double kb = config.bend.stiffness_n_per_m;
-  if (kb > 0.0) {
-    const double ratio = config.bend.damping_ns_per_m / (2.0 * std::sqrt(kb * particle_mass_kg));
-    if (ratio < kMinBendDampingRatio) {
-      if (why) {
-        *why = "solver.bend.damping_ns_per_m: " + std::to_string(config.bend.damping_ns_per_m) +
-               " N s/m is " + std::to_string(ratio) +
-               " of critical for k_b = " + std::to_string(kb) + " N/m and " +
-               std::to_string(particle_mass_kg) + " kg particles; below " +
-               std::to_string(kMinBendDampingRatio) +
-               " the bending spring flutters (raise the damping or lower k_b)";
-      }
-      return false;
-    }
-  }
+  if (!config_check::finiteInRange("groom.linear_density_kg_per_m", linear_density_kg_per_m, 1e-9,
+                                   1e3, why))
+    return false;
   // The springs must hold the hanging strand within the strain limit: the root edge carries the
   // weight of the whole strand, and the stretch and bend springs both act along it (the bend
   // spring of eq. 4 compares whole vectors, docs/physics.md §2.6). Past the limit the limiter
   // fights the springs on every substep and pumps energy into long strands (measured: a
-  // 128-particle strand at 5 % reached 358 m/s still hanging).
-  const double axial_k = config.stretch.stiffness_n_per_m + config.bend.stiffness_n_per_m;
+  // 128-particle strand at 5 % reached 358 m/s still hanging). Per length the root edge's
+  // strain is rho g l / (EA + B / alpha_b^2): physical values only, the same at any resolution.
   const double g = config.gravity_m_s2.norm();
+  const double axial = config.stretch.axial_stiffness_n +
+                       (config.bend.smoothing_length_m > 0.0
+                            ? config.bend.stiffness_n_m2 /
+                                  (config.bend.smoothing_length_m * config.bend.smoothing_length_m)
+                            : 0.0);
   for (int s = 0; s < groom.strandCount() && g > 0.0; ++s) {
-    const int begin = static_cast<int>(groom.strand_offsets[s]);
-    const double edge = (groom.points[begin + 1] - groom.points[begin]).norm();
-    const double weight = (groom.strandSize(s) - 1) * particle_mass_kg * g;
-    const double strain = weight / (axial_k * edge);
+    double length = 0.0;
+    for (uint32_t k = groom.strand_offsets[s]; k + 1 < groom.strand_offsets[s + 1]; ++k)
+      length += (groom.points[k + 1] - groom.points[k]).norm();
+    const double strain = linear_density_kg_per_m * g * length / axial;
     if (strain > config.stretch.strain_limit) {
       if (why) {
-        *why = "solver.stretch.stiffness_n_per_m: " +
-               std::to_string(config.stretch.stiffness_n_per_m) + " N/m (with k_b " +
-               std::to_string(config.bend.stiffness_n_per_m) + ") lets strand " +
-               std::to_string(s) + " hang at strain " + std::to_string(strain) +
-               " under its own weight, past solver.stretch.strain_limit " +
+        *why = "solver.stretch.axial_stiffness_n: " +
+               std::to_string(config.stretch.axial_stiffness_n) + " N (with B / alpha_b^2 " +
+               std::to_string(axial - config.stretch.axial_stiffness_n) + " N) lets strand " +
+               std::to_string(s) + " (" + std::to_string(length) + " m) hang at strain " +
+               std::to_string(strain) + " under its own weight, past solver.stretch.strain_limit " +
                std::to_string(config.stretch.strain_limit) +
-               " (stiffen the springs, lighten groom.particle_mass_kg, or use fewer particles)";
+               " (stiffen the stretch spring or lighten groom.linear_density_kg_per_m)";
       }
       return false;
     }
   }
-  buildModelUnchecked(groom, particle_mass_kg, head, config, model);
+  buildModelUnchecked(groom, linear_density_kg_per_m, head, config, model, true);
   return true;
 }
 
@@ -88,18 +80,130 @@ Vec3List makeHelix(int count, double edge_m, double radius_m, double pitch_m) {
   return h;
 }
 
-void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const HeadShape& head,
-                         const SolverConfig& config, HairModel* model) {
+namespace {
+
+/// Rest edges and lumped masses (rho (L_{i-1} + L_i) / 2) of strand s, from the groom's edges.
+/// Returns its mean edge.
+double strandMasses(const Vec3* p, int begin, int size, double rho, HairModel* m) {
+  double total = 0.0;
+  for (int i = 0; i + 1 < size; ++i) {
+    const double l = (p[i + 1] - p[i]).norm();
+    m->rest_edge_m[begin + i] = l;
+    m->length_share_m[begin + i] += 0.5 * l;
+    m->length_share_m[begin + i + 1] += 0.5 * l;
+    total += l;
+  }
+  for (int i = 0; i < size; ++i) {
+    m->mass_kg[begin + i] = rho * m->length_share_m[begin + i];
+    m->inv_mass[begin + i] = i == 0 ? 0.0 : 1.0 / m->mass_kg[begin + i];  // the root: kinematic
+  }
+  return total / (size - 1);
+}
+
+/// alpha_b for a strand of mean edge l: the configured length, lengthened to the flutter bound
+/// kMinBendSmoothingEdges edges with `stabilize` (config.h).
+double bendSmoothingLength(const BendConfig& bend, double l, bool stabilize) {
+  return stabilize ? std::max(bend.smoothing_length_m, kMinBendSmoothingEdges * l)
+                   : bend.smoothing_length_m;
+}
+
+/// The spring constants of strand s from the per-length parameters (docs/physics.md §2.11): per
+/// edge the stretch spring over the groom's edge, per strand bend, core and curl over the mean
+/// edge l; with `stabilize`, c_b raised to the flutter bound. Returns whether alpha_b or c_b
+/// was raised.
+bool strandSpringConstants(const SolverConfig& c, int s, bool stabilize, HairModel* m) {
+  const int begin = m->strandBegin(s), size = m->strandSize(s);
+  const Vec3* p = &m->rest_position_head[begin];
+  for (int i = 0; i + 1 < size; ++i) {
+    const double l = (p[i + 1] - p[i]).norm();
+    m->stretch_k[begin + i] = c.stretch.axial_stiffness_n / l;
+    m->stretch_c[begin + i] = c.stretch.damping_n_s / l;
+  }
+  const double l = m->mean_edge_m[s];
+  const double alpha_b = bendSmoothingLength(c.bend, l, stabilize);
+  bool raised = alpha_b != c.bend.smoothing_length_m;
+  // B / (l alpha^2): the edge's angle to its target is alpha kappa for a curvature change kappa
+  // smooth on the alpha scale, so sum 1/2 k_b (l alpha kappa)^2 = integral 1/2 B kappa^2 ds.
+  const double alpha2 = std::max(alpha_b * alpha_b, l * l);
+  m->bend_k[s] = c.bend.stiffness_n_m2 / (l * alpha2);
+  m->bend_c[s] = c.bend.damping_n_s / l;
+  const double critical = 2.0 * std::sqrt(m->bend_k[s] * m->linear_density_kg_per_m * l);
+  if (stabilize && m->bend_k[s] > 0.0 && m->bend_c[s] < kMinBendDampingRatio * critical) {
+    m->bend_c[s] = kMinBendDampingRatio * critical;
+    raised = true;
+  }
+  m->core_k[s] = c.core.stiffness_n / l;
+  m->core_c[s] = c.core.damping_n_s / l;
+  m->curl_k[s] = c.curl.weight_n / l;
+  return raised && c.bend.stiffness_n_m2 > 0.0;
+}
+
+/// The explicit substep bound and the damping-pass bound of strand s (HairModel fields), folded
+/// into the model's.
+void strandStabilityBounds(int s, HairModel* m) {
+  const int begin = m->strandBegin(s), n = m->strandSize(s);
+  const double shared = m->bend_k[s] + m->core_k[s] + m->curl_k[s];
+  const double shared_c = m->bend_c[s] + m->core_c[s];
+  double lambda = 0.0, damping = m->max_damping_per_mass;
+  for (int i = 1; i < n; ++i) {
+    const double k_in = m->stretch_k[begin + i - 1] + shared;
+    const double k_out = i + 1 < n ? m->stretch_k[begin + i] + shared : 0.0;
+    lambda = std::max(lambda, 2.0 * (k_in + k_out) * m->inv_mass[begin + i]);
+    const double c_in = m->stretch_c[begin + i - 1] + shared_c;
+    const double c_out = i + 1 < n ? m->stretch_c[begin + i] + shared_c : 0.0;
+    damping = std::max(damping, std::max(c_in, c_out) * m->inv_mass[begin + i]);
+  }
+  m->max_damping_per_mass = damping;
+  if (lambda > 0.0) {
+    const double bound = kExplicitStabilityFraction * 2.0 / std::sqrt(lambda);
+    if (m->explicit_substep_bound_s <= 0.0 || bound < m->explicit_substep_bound_s)
+      m->explicit_substep_bound_s = bound;
+  }
+}
+
+void allSpringConstants(const SolverConfig& config, bool stabilize, HairModel* m) {
+  const int strands = m->strandCount();
+  for (auto* v : {&m->bend_k, &m->bend_c, &m->core_k, &m->core_c, &m->curl_k})
+    v->assign(strands, 0.0);
+  m->stretch_k.assign(m->particleCount(), 0.0);
+  m->stretch_c.assign(m->particleCount(), 0.0);
+  m->bend_stabilized_strands = 0;
+  m->explicit_substep_bound_s = 0.0;
+  m->max_damping_per_mass = 0.0;
+  for (int s = 0; s < strands; ++s) {
+    m->bend_stabilized_strands += strandSpringConstants(config, s, stabilize, m);
+    strandStabilityBounds(s, m);
+  }
+}
+
+}  // namespace
+
+bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why) {
+  if (!config.validate("solver.", why)) return false;
+  allSpringConstants(config, true, model);
+  return true;
+}
+
+void buildModelUnchecked(const Groom& groom, double rho, const HeadShape& head,
+                         const SolverConfig& config, HairModel* model, bool stabilize_bending) {
   HairModel m;
   m.strand_offsets = groom.strand_offsets;
   m.rest_position_head = groom.points;
   m.head = head;
+  m.linear_density_kg_per_m = rho;
   const int n = groom.particleCount();
   const int strands = groom.strandCount();
-  m.mass_kg.assign(n, particle_mass_kg);
-  m.inv_mass.assign(n, 1.0 / particle_mass_kg);
-  m.min_mass_kg = particle_mass_kg;
+  m.mass_kg.assign(n, 0.0);
+  m.inv_mass.assign(n, 0.0);
+  m.length_share_m.assign(n, 0.0);
+  m.rest_head_distance_m.assign(n, 0.0);
+  for (int k = 0; k < n; ++k) {
+    Vec3 normal;
+    m.rest_head_distance_m[k] = head.distance(groom.points[k], &normal);
+  }
   m.rest_edge_m.assign(n, 0.0);
+  m.stretch_k.assign(n, 0.0);
+  m.stretch_c.assign(n, 0.0);
   m.bend_local_target.assign(n, Vec3::Zero());
   m.core_rest_m.assign(n, 0.0);
   m.mean_edge_m.assign(strands, 0.0);
@@ -116,19 +220,13 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
     const int begin = m.strandBegin(s);
     const int size = m.strandSize(s);
     m.max_strand_size = std::max(m.max_strand_size, size);
-    m.inv_mass[begin] = 0.0;  // the root is kinematic
     const Vec3* p = &groom.points[begin];
-    double total = 0.0;
-    for (int i = 0; i + 1 < size; ++i) {
-      m.rest_edge_m[begin + i] = (p[i + 1] - p[i]).norm();
-      total += m.rest_edge_m[begin + i];
-    }
-    const double l = total / (size - 1);
+    const double l = strandMasses(p, begin, size, rho, &m);
     m.mean_edge_m[s] = l;
-    m.strand_length_m[s] = total;
+    m.strand_length_m[s] = l * (size - 1);
     // beta from the rest mean edge, once, for the rest and the current curves (A3, §10.3).
-    m.beta_bend[s] = smoothingBeta(l, config.bend.smoothing_edges * l);
-    m.beta_core[s] = smoothingBeta(l, config.core.smoothing_edges * l);
+    m.beta_bend[s] = smoothingBeta(l, bendSmoothingLength(config.bend, l, stabilize_bending));
+    m.beta_core[s] = smoothingBeta(l, config.core.smoothing_length_m);
     // Root frame: tangent along the rest root edge (= d_0, so edge 0 is aligned at rest),
     // second axis toward the scalp normal's perpendicular part.
     const Vec3 e0 = p[1] - p[0];
@@ -168,6 +266,7 @@ void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const Head
     axis = (turn * (helix[size - 1] - helix[0])).normalized();
     m.helix_axis[s] = axis;
   }
+  allSpringConstants(config, stabilize_bending, &m);
   // Sag-free start (docs/physics.md §8): the head starts at identity orientation in every scene
   // (headPose(motion, 0) = motion.base, not a scene parameter), so gravity in the head frame is
   // the world gravity.

@@ -39,8 +39,6 @@ namespace wet_curly_hair {
 void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model, SagFreeStats* stats) {
   SagFreeStats local;
   HairModel& m = *model;
-  const double ks = config.stretch.stiffness_n_per_m;
-  const double kb = config.bend.stiffness_n_per_m;
   const double cap = kSagFreeMaxPreloadOfStrainLimit * config.stretch.strain_limit;
   Vec3List d;
   Mat3List frames;
@@ -54,8 +52,10 @@ void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model, Sa
     frames.resize(n - 1);
     smoothDifferences(p, n, m.beta_bend[s], d.data());
     transportFrames(m.root_frame_head[s], d.data(), n - 1, frames.data());
+    const double kb = m.bend_k[s];
     Vec3 weight = Vec3::Zero();  // W_i, summed tip -> root
     for (int i = n - 2; i >= 0; --i) {
+      const double ks = m.stretch_k[begin + i];
       weight += m.mass_kg[begin + i + 1] * g;
       const Vec3 e = p[i + 1] - p[i];
       const double len = e.norm();

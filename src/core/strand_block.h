@@ -38,6 +38,8 @@ struct BlockArrays {
   V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
   M33<S>*block, *pivot_inverse;
   S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
+  S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
+  S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
   /// Obstacle distance cache: where each particle's distance was last evaluated, and by how much
   /// it then exceeded the reach of the obstacle stages (negative: evaluate next time).
   V3<S>* obstacle_anchor;
@@ -68,6 +70,7 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3();
   a.block = m3(), a.pivot_inverse = m3();
   a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
+  a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
   a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
   bytes += (8 - reinterpret_cast<uintptr_t>(bytes) % 8) % 8;
   a.p_one = reinterpret_cast<V3<double>*>(bytes);
@@ -100,7 +103,11 @@ struct Block {
   bool any_curl = false, any_obstacle = false, any_adhesion = false, any_stiffness = false;
   bool any_external = false;
   Mask curl_mask, stiffness_mask;
-  S beta_bend, beta_core, core_gain, curl_stiffness;
+  S beta_bend, beta_core, core_gain;
+  // Per-strand spring constants (HairModel::bend_k ...): curl_weight is w_h (W / L) on a wet
+  // lane, curl_stiffness the same in spring mode only (the implicit block's share).
+  S bend_k, bend_c, core_k, core_c, curl_weight, curl_stiffness;
+  bool any_core_damping = false;
   S max_strain;
   /// Beyond this distance neither obstacle collision (offset) nor adhesion (kernel support) acts.
   double obstacle_reach = 0.0;
@@ -137,7 +144,7 @@ void planBlockStages(Block<S>& blk) {
   const bool have_obstacles = blk.inputs.obstacles && !blk.inputs.obstacles->empty();
   for (int l = 0; l < Block<S>::kWidth; ++l) {
     const StrandFlags& fl = blk.flags[l];
-    blk.curl_on[l] = fl.wet && config.curl.enabled && config.curl.weight_n_per_m > 0.0;
+    blk.curl_on[l] = fl.wet && config.curl.enabled && config.curl.weight_n > 0.0;
     blk.obstacle_on[l] = fl.near_obstacle && have_obstacles && blk.realLane(l);
     blk.adhesion_on[l] = blk.obstacle_on[l] && fl.wet && config.adhesion.enabled &&
                          config.adhesion.peak_acceleration_m_s2 > 0.0;
@@ -147,11 +154,19 @@ void planBlockStages(Block<S>& blk) {
     blk.any_adhesion |= blk.adhesion_on[l];
     blk.any_stiffness |= blk.stiffness_on[l];
     blk.any_external |= fl.external_force && blk.realLane(l);
-    setLaneValue(&blk.beta_bend, l, blk.model.beta_bend[blk.strand[l]]);
-    setLaneValue(&blk.beta_core, l, blk.model.beta_core[blk.strand[l]]);
-    setLaneValue(&blk.core_gain, l, coreLocalGain(blk.model.beta_core[blk.strand[l]]));
+    const HairModel& model = blk.model;
+    const int s = blk.strand[l];
+    setLaneValue(&blk.beta_bend, l, model.beta_bend[s]);
+    setLaneValue(&blk.beta_core, l, model.beta_core[s]);
+    setLaneValue(&blk.core_gain, l, coreLocalGain(model.beta_core[s]));
+    setLaneValue(&blk.bend_k, l, model.bend_k[s]);
+    setLaneValue(&blk.bend_c, l, model.bend_c[s]);
+    setLaneValue(&blk.core_k, l, model.core_k[s]);
+    setLaneValue(&blk.core_c, l, model.core_c[s]);
+    blk.any_core_damping |= model.core_c[s] > 0.0;
+    setLaneValue(&blk.curl_weight, l, blk.curl_on[l] ? model.curl_k[s] : 0.0);
     setLaneValue(&blk.curl_stiffness, l,
-                 blk.curl_on[l] && blk.plan.curl_spring ? config.curl.weight_n_per_m : 0.0);
+                 blk.curl_on[l] && blk.plan.curl_spring ? model.curl_k[s] : 0.0);
   }
   blk.curl_mask = maskFromBools<LaneMask<S>>(blk.curl_on);
   blk.stiffness_mask = maskFromBools<LaneMask<S>>(blk.stiffness_on);
@@ -182,9 +197,12 @@ void gatherBlock(Block<S>& blk) {
       setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
       setLaneValue(&a.factor[i], l, blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
       setLaneValue(&a.obstacle_slack[i], l, -1.0);
+      setLaneValue(&a.rest_head_distance[i], l, model.rest_head_distance_m[k]);
       if (i < blk.edges) {
         setLaneValue(&a.rest[i], l, model.rest_edge_m[k]);
         setLaneValue(&a.core_rest[i], l, model.core_rest_m[k]);
+        setLaneValue(&a.stretch_k[i], l, model.stretch_k[k]);
+        setLaneValue(&a.stretch_c[i], l, model.stretch_c[k]);
         setLane(&a.local_target[i], l, model.bend_local_target[k]);
         setLane(&a.helix_edge[i], l, model.helix_edge[k]);
       }
@@ -249,7 +267,6 @@ V3<S> rootsFramesTargets(Block<S>& blk, const SubstepMotion& motion) {
 template <typename S>
 void elasticForces(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
-  const StretchConfig& st = blk.config.stretch;
   const V3<S> gravity = splat3<S>(blk.config.gravity_m_s2);
   for (int i = 0; i < blk.n; ++i) a.f[i] = a.m[i] * gravity;
   if (blk.any_external)
@@ -257,13 +274,11 @@ void elasticForces(Block<S>& blk) {
       if (blk.flags[l].external_force)
         for (int i = 0; i < blk.n; ++i)
           setLane(&a.f[i], l, lane(a.f[i], l) + blk.state->external_force[blk.begin[l] + i]);
-  const S ks = splat<S>(st.stiffness_n_per_m);
-  const S kb = splat<S>(blk.config.bend.stiffness_n_per_m);
-  const S kc = splat<S>(blk.config.core.stiffness_n_per_m);
   for (int i = 0; i < blk.edges; ++i) {
     const V3<S> e = a.p[i + 1] - a.p[i];
-    const V3<S> fs = stretchForce(e, a.rest[i], ks) + bendForce(e, a.target[i], kb) +
-                     coreForce(a.b[i], a.core_rest[i], kc);
+    const V3<S> fs = stretchForce(e, a.rest[i], a.stretch_k[i]) +
+                     bendForce(e, a.target[i], blk.bend_k) +
+                     coreForce(a.b[i], a.core_rest[i], blk.core_k);
     a.f[i] += fs;
     a.f[i + 1] -= fs;
   }
@@ -283,7 +298,7 @@ uint64_t curlForces(Block<S>& blk) {
                          lane(a.p[blk.n - 1], l), blk.h, blk.state);
     setLane(&rot, l, blk.state->curl_rotation[blk.strand[l]]);
   }
-  const S w = splat<S>(blk.config.curl.weight_n_per_m);
+  const S w = blk.curl_weight;
   for (int i = 0; i < blk.edges; ++i) {
     const S s = splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
     const auto on = blk.curl_mask && (s > splat<S>(0.0));
@@ -361,21 +376,19 @@ template <typename S>
 void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
   BlockArrays<S>& a = blk.a;
   const int n = blk.n;
-  const double cs = blk.config.stretch.damping_ns_per_m;
-  const double cb = blk.config.bend.damping_ns_per_m;
-  const double cc = blk.config.core.damping_ns_per_m;
+  const bool core_damping = blk.any_core_damping;
   for (int i = 1; i < n; ++i) a.v[i] += (splat<S>(blk.h) * a.inv_m[i]) * a.f[i];
   const int passes = blk.plan.damping_passes;
   const S tau = splat<S>(blk.h / passes);
   for (int pass = 0; pass < passes; ++pass) {
-    if (cc > 0.0) smoothDifferences(a.v, n, blk.beta_core, a.nu);
+    if (core_damping) smoothDifferences(a.v, n, blk.beta_core, a.nu);
     for (int i = 0; i < n; ++i) a.f[i] = zero3<S>();
     for (int i = 0; i < blk.edges; ++i) {
       const V3<S> e = a.p[i + 1] - a.p[i];
       const V3<S> dv = a.v[i + 1] - a.v[i];
-      V3<S> fd = stretchDampingForce(e, dv, splat<S>(cs)) +
-                 bendDampingForce(e, dv - cross(omega, e), splat<S>(cb));
-      if (cc > 0.0) fd += coreDampingForce(a.b[i], a.nu[i], splat<S>(cc));
+      V3<S> fd = stretchDampingForce(e, dv, a.stretch_c[i]) +
+                 bendDampingForce(e, dv - cross(omega, e), blk.bend_c);
+      if (core_damping) fd += coreDampingForce(a.b[i], a.nu[i], blk.core_c);
       a.f[i] += fd;
       a.f[i + 1] -= fd;
     }
@@ -428,15 +441,14 @@ template <typename S>
 void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
   BlockArrays<S>& a = blk.a;
   const int n = blk.n;
-  const SolverConfig& config = blk.config;
   const double theta = blk.plan.theta;
-  EdgeImplicitParams q;
-  q.k_s = config.stretch.stiffness_n_per_m, q.k_b = config.bend.stiffness_n_per_m;
-  q.k_c = config.core.stiffness_n_per_m, q.c_s = config.stretch.damping_ns_per_m;
-  q.c_b = config.bend.damping_ns_per_m, q.c_c = config.core.damping_ns_per_m;
-  q.theta_h = theta * blk.h;
-  if (q.c_c > 0.0) smoothDifferences(a.v, n, blk.beta_core, a.nu);
+  EdgeImplicitParams<S> q;
+  q.k_b = blk.bend_k, q.k_c = blk.core_k, q.c_b = blk.bend_c, q.c_c = blk.core_c;
+  q.core_damping = blk.any_core_damping;
+  q.theta_h = splat<S>(theta * blk.h);
+  if (q.core_damping) smoothDifferences(a.v, n, blk.beta_core, a.nu);
   for (int i = 0; i < blk.edges; ++i) {
+    q.k_s = a.stretch_k[i], q.c_s = a.stretch_c[i];
     const S curl = blk.curl_stiffness * splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
     const EdgeImplicitTerms<S> t =
         edgeImplicitTerms(q, a.p[i + 1] - a.p[i], a.v[i + 1] - a.v[i], a.rest[i], a.b[i],
@@ -446,7 +458,7 @@ void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
     a.f[i + 1] -= t.explicit_force;
   }
   for (int i = 0; i < n; ++i) a.v_start[i] = a.v[i];
-  const S th = splat<S>(q.theta_h);
+  const S th = q.theta_h;
   for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + th * a.f[i];
   a.rhs[1] += a.block[0] * a.v[0];  // the prescribed root velocity moved to the right-hand side
   solveBlockTridiagonal(blk);
@@ -502,11 +514,15 @@ void advancePositions(Block<S>& blk, const V3<S>& root_next) {
 
 /// 7. Head collision (physics.md §6) of particles 1..n-1 of every lane: projection to the offset
 /// surface, inelastic, Coulomb friction, the head's velocity at the particle from the two poses.
-/// Adds each lane's contacts to touched[lane].
+/// Adds each lane's contacts to touched[lane]. A particle's offset is delta or its rest distance
+/// from the head, whichever is smaller: near the root of a fine strand the rest pose lies inside
+/// delta (particle 1 of a 256-particle strand is 1 mm from the scalp), where the projection out
+/// to delta and the strain limit of the root edge would fight on every substep and pump
+/// velocity (measured: 2.5 m/s, held).
 template <typename S>
 void collideHeadParticles(const HairModel& model, const CollisionConfig& config,
-                          const SubstepMotion& motion, const Vec3& origin, double h, V3<S>* p,
-                          V3<S>* v, int n, uint64_t* touched) {
+                          const SubstepMotion& motion, const Vec3& origin, double h,
+                          const S* rest_distance, V3<S>* p, V3<S>* v, int n, uint64_t* touched) {
   const M33<S> r0 = splat33<S>(motion.r0), r1 = splat33<S>(motion.r1);
   const M33<S> r1_inverse = splat33<S>(motion.r1_inverse);
   const V3<S> t0 = splat3<S>(Vec3(motion.pose0.translation - origin));
@@ -515,11 +531,11 @@ void collideHeadParticles(const HairModel& model, const CollisionConfig& config,
     const V3<S> x_head = r1_inverse * (p[i] - t1);
     V3<S> n_head;
     const S dist = model.head.distance(x_head, &n_head);
-    const auto contact = dist < splat<S>(config.offset_m);
+    const S offset = vmin(splat<S>(config.offset_m), vmax(rest_distance[i], splat<S>(0.0)));
+    const auto contact = dist < offset;
     if (!anyLane(contact)) continue;
     const V3<S> v_head = (p[i] - (r0 * x_head + t0)) / splat<S>(h);
-    collideParticle(contact, dist, r1 * n_head, config.offset_m, config.friction, v_head, &p[i],
-                    &v[i]);
+    collideParticle(contact, dist, r1 * n_head, offset, config.friction, v_head, &p[i], &v[i]);
     for (int l = 0; l < kLaneWidth<S>; ++l) touched[l] += maskLane(contact, l);
   }
 }
@@ -602,8 +618,9 @@ uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l
        ++round) {
     touched = 0;
     if (config.collision.head_enabled)
-      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p_one, a.v_one,
-                           n, &touched);
+      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h,
+                           &blk.model.rest_head_distance_m[blk.begin[l]], a.p_one, a.v_one, n,
+                           &touched);
     if (obstacles)
       collideObstacleParticles<double>(config.obstacle, &obstacles, distance, nullptr, nullptr,
                                        a.p_one, a.v_one, n, &touched);
@@ -628,8 +645,8 @@ void collideAndLimit(Block<S>& blk, const SubstepMotion& motion, StageLaps& laps
   const int n = blk.n;
   uint64_t touched[Block<S>::kWidth] = {};
   if (config.collision.head_enabled) {
-    collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h, a.p, a.v, n,
-                         touched);
+    collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h,
+                         a.rest_head_distance, a.p, a.v, n, touched);
     for (int l = 0; l < blk.active; ++l) blk.stats->head_contacts += touched[l];
     laps.lap(kStageHeadCollision, uint64_t(n - 1) * blk.active);
   }

@@ -635,7 +635,16 @@ bool importStrand(const HairFileData& file, int s, const HairImportOptions& opts
               " repeated ones are dropped";
     return false;
   }
+  if (opts.min_edge_m > 0.0 && !(length >= 2.0 * opts.min_edge_m)) {
+    *reason = "length " + metres(length) + ", shorter than two edges of min_edge_m " +
+              metres(opts.min_edge_m);
+    return false;
+  }
   int count = opts.resample_particles;
+  if (opts.min_edge_m > 0.0 && count == 0 && opts.resample_edge_m == 0.0 &&
+      length / (strand.size() - 1) < opts.min_edge_m)
+    count =
+        std::max(kHairMinStrandPoints, static_cast<int>(std::floor(length / opts.min_edge_m)) + 1);
   if (opts.resample_edge_m > 0.0) {
     const double edges = std::round(length / opts.resample_edge_m);
     if (!(edges + 1.0 <= kHairMaxResampledPoints)) {
@@ -678,6 +687,9 @@ bool checkImportOptions(const HairImportOptions& opts, std::string* error) {
       << ": must be 0 (keep the file's points) or >= 2";
   } else if (!(opts.resample_edge_m >= 0.0) || !std::isfinite(opts.resample_edge_m)) {
     m << "import option resample_edge_m is " << opts.resample_edge_m
+      << ": must be 0 (off) or a finite length > 0, m";
+  } else if (!(opts.min_edge_m >= 0.0) || !std::isfinite(opts.min_edge_m)) {
+    m << "import option min_edge_m is " << opts.min_edge_m
       << ": must be 0 (off) or a finite length > 0, m";
   } else if (opts.resample_edge_m > 0.0 && opts.resample_particles > 0) {
     m << "import options resample_particles (" << opts.resample_particles

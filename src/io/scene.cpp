@@ -59,6 +59,14 @@ bool SceneConfig::validate(std::string* why) const {
       }
       return false;
     }
+    const double min_edge = groom_file.min_edge_m;
+    if (!std::isfinite(min_edge) || (min_edge != 0.0 && (min_edge < 1e-5 || min_edge > 0.1))) {
+      if (why) {
+        *why = "groom_file.min_edge_m: " + std::to_string(min_edge) +
+               " must be 0 (off) or in [1e-5, 0.1] m";
+      }
+      return false;
+    }
     if (edge != 0.0 && groom_file.resample_particles != 0) {
       if (why) {
         *why = "groom_file.resample_edge_m: set together with groom_file.resample_particles (" +
@@ -81,6 +89,50 @@ void addVec(std::vector<ParamRef>* t, const std::string& name, Vec3* v, const st
 
 }  // namespace
 
+namespace {
+
+/// The groom and groom_file rows of parameterTable.
+void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef>& t = *table;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kInt, f, doc, rebuild});
+  };
+  auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kString, f, doc, rebuild});
+  };
+  GroomConfig& g = s->groom;
+  i("groom.strands", &g.strands, "number of generated strands", true);
+  i("groom.particles", &g.particles, "particles per strand, root included", true);
+  d("groom.length_m", &g.length_m, "strand arc length, m", true);
+  d("groom.curl_radius_m", &g.curl_radius_m, "helix radius, m (0: straight)", true);
+  d("groom.curl_pitch_m", &g.curl_pitch_m, "helix rise per turn, m", true);
+  d("groom.jitter", &g.jitter, "relative per-strand variation of radius, pitch, length", true);
+  i("groom.seed", &g.seed, "random seed", true);
+  d("groom.linear_density_kg_per_m", &g.linear_density_kg_per_m,
+    "rho, mass per length of strand, kg/m", true);
+  d("groom.scalp_half_angle_deg", &g.scalp_half_angle_deg, "scalp patch half angle, deg", true);
+  addVec(&t, "groom.scalp_axis", &g.scalp_axis, "scalp patch centre direction (head frame)", true);
+  GroomFileConfig& gf = s->groom_file;
+  str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)",
+      true);
+  d("groom_file.scale", &gf.scale, "metres per file unit", true);
+  str("groom_file.up_axis", &gf.up_axis, "the file's up axis: x, y, z, -x, -y, -z", true);
+  addVec(&t, "groom_file.offset_m", &gf.offset_m, "offset after scaling, head frame, m", true);
+  i("groom_file.resample_particles", &gf.resample_particles, "0 keeps the file's points", true);
+  d("groom_file.resample_edge_m", &gf.resample_edge_m,
+    "edge length to resample every strand to, m (0: off; particles follow each strand's length)",
+    true);
+  d("groom_file.min_edge_m", &gf.min_edge_m,
+    "shortest edge kept: finer strands are resampled, strands under two edges skipped, m (0: off)",
+    true);
+}
+
+}  // namespace
+
 std::vector<ParamRef> parameterTable(SceneConfig* s) {
   using T = ParamRef::Type;
   std::vector<ParamRef> t;
@@ -96,43 +148,29 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
     t.push_back({n, T::kString, f, doc, rebuild});
   };
-  GroomConfig& g = s->groom;
-  i("groom.strands", &g.strands, "number of generated strands", true);
-  i("groom.particles", &g.particles, "particles per strand, root included", true);
-  d("groom.length_m", &g.length_m, "strand arc length, m", true);
-  d("groom.curl_radius_m", &g.curl_radius_m, "helix radius, m (0: straight)", true);
-  d("groom.curl_pitch_m", &g.curl_pitch_m, "helix rise per turn, m", true);
-  d("groom.jitter", &g.jitter, "relative per-strand variation of radius, pitch, length", true);
-  i("groom.seed", &g.seed, "random seed", true);
-  d("groom.particle_mass_kg", &g.particle_mass_kg, "mass per particle, kg", true);
-  d("groom.scalp_half_angle_deg", &g.scalp_half_angle_deg, "scalp patch half angle, deg", true);
-  addVec(&t, "groom.scalp_axis", &g.scalp_axis, "scalp patch centre direction (head frame)", true);
-  GroomFileConfig& gf = s->groom_file;
-  str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)",
-      true);
-  d("groom_file.scale", &gf.scale, "metres per file unit", true);
-  str("groom_file.up_axis", &gf.up_axis, "the file's up axis: x, y, z, -x, -y, -z", true);
-  addVec(&t, "groom_file.offset_m", &gf.offset_m, "offset after scaling, head frame, m", true);
-  i("groom_file.resample_particles", &gf.resample_particles, "0 keeps the file's points", true);
-  d("groom_file.resample_edge_m", &gf.resample_edge_m,
-    "edge length to resample every strand to, m (0: off; particles follow each strand's length)",
-    true);
+  addGroomParameters(s, &t);
   addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
   addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);
   SolverConfig& c = s->solver;
-  d("solver.stretch.stiffness_n_per_m", &c.stretch.stiffness_n_per_m, "k_s, N/m (eq. 1)", false);
-  d("solver.stretch.damping_ns_per_m", &c.stretch.damping_ns_per_m, "c_s, N s/m (eq. 1)", false);
+  d("solver.stretch.axial_stiffness_n", &c.stretch.axial_stiffness_n,
+    "EA, N per unit strain (eq. 1: k_s = EA / L per edge)", false);
+  d("solver.stretch.damping_n_s", &c.stretch.damping_n_s,
+    "C_s, N s per unit strain rate (eq. 1: c_s = C_s / L)", false);
   d("solver.stretch.strain_limit", &c.stretch.strain_limit, "largest edge strain", false);
   d("solver.stretch.strain_rate_limit_per_substep", &c.stretch.strain_rate_limit_per_substep,
     "velocity clamp: largest strain change per substep", false);
   str("solver.stretch.limit_velocity", &c.stretch.limit_velocity,
       "after a strain-limit projection: displacement (Selle) or inelastic", false);
-  d("solver.bend.stiffness_n_per_m", &c.bend.stiffness_n_per_m, "k_b, N/m (eq. 4)", false);
-  d("solver.bend.damping_ns_per_m", &c.bend.damping_ns_per_m, "c_b, N s/m (eq. 4)", false);
-  d("solver.bend.smoothing_edges", &c.bend.smoothing_edges, "alpha_b in mean edge lengths", true);
-  d("solver.core.stiffness_n_per_m", &c.core.stiffness_n_per_m, "k_c, N/m (eq. 5)", false);
-  d("solver.core.damping_ns_per_m", &c.core.damping_ns_per_m, "c_c, N s/m (eq. 5)", false);
-  d("solver.core.smoothing_edges", &c.core.smoothing_edges, "alpha_c in mean edge lengths", true);
+  d("solver.bend.stiffness_n_m2", &c.bend.stiffness_n_m2,
+    "B, bending stiffness, N m^2 (eq. 4: k_b = B / (L alpha_b^2))", false);
+  d("solver.bend.damping_n_s", &c.bend.damping_n_s, "D_b, N s (eq. 4: c_b = D_b / L)", false);
+  d("solver.bend.smoothing_length_m", &c.bend.smoothing_length_m,
+    "alpha_b, bend frame smoothing length, m (eq. 2)", true);
+  d("solver.core.stiffness_n", &c.core.stiffness_n, "K_c, N per unit strain (eq. 5: k_c = K_c / L)",
+    false);
+  d("solver.core.damping_n_s", &c.core.damping_n_s, "C_c, N s (eq. 5: c_c = C_c / L)", false);
+  d("solver.core.smoothing_length_m", &c.core.smoothing_length_m,
+    "alpha_c, core smoothing length, m (eq. 2)", true);
   b("solver.collision.head_enabled", &c.collision.head_enabled, "collide with the head", false);
   d("solver.collision.offset_m", &c.collision.offset_m, "collision offset delta, m", false);
   d("solver.collision.friction", &c.collision.friction, "Coulomb friction mu", false);
@@ -161,7 +199,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "solve rest lengths and bend targets so the groom hangs still (docs/physics.md §8)", true);
   b("solver.curl.enabled", &c.curl.enabled, "curl exaggeration on wet particles (eqs. 6-9)", false);
   str("solver.curl.mode", &c.curl.mode, "spring (A10 restoring) or literal (eq. 9 couple)", false);
-  d("solver.curl.weight_n_per_m", &c.curl.weight_n_per_m, "w_h, N/m", false);
+  d("solver.curl.weight_n", &c.curl.weight_n, "W, N (eqs. 6-9: w_h = W / L)", false);
   d("solver.curl.helix_radius_m", &c.curl.helix_radius_m, "wet helix radius r, m (eq. 6)", true);
   d("solver.curl.helix_pitch_m", &c.curl.helix_pitch_m, "wet helix rise per turn, m", true);
   d("solver.curl.rotation_time_constant_s", &c.curl.rotation_time_constant_s,
@@ -171,8 +209,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.cohesion.radius_m", &c.cohesion.radius_m, "kernel support h, m", false);
   b("solver.cohesion.include_self", &c.cohesion.include_self,
     "the particle itself joins the Shepard weights of eq. 10 (A13)", false);
-  d("solver.cohesion.lin_stiffness_n_per_m", &c.cohesion.lin_stiffness_n_per_m,
-    "lin baseline: pair attraction, N/m", false);
+  d("solver.cohesion.lin_stiffness_n_per_m3", &c.cohesion.lin_stiffness_n_per_m3,
+    "lin baseline: attraction per length of each strand, N/m per m^2", false);
   d("solver.cohesion.kim_surface_tension", &c.cohesion.kim_surface_tension,
     "kim baseline: Akinci cohesion coefficient", false);
   str("solver.cohesion.evaluation", &c.cohesion.evaluation,
@@ -320,6 +358,32 @@ bool ParamRef::setFromDouble(double v, std::string* why) const {
   return false;
 }
 
+std::string unknownParameterMessage(const std::string& name) {
+  struct Renamed {
+    const char *old_name, *new_name, *unit;
+  };
+  static const Renamed kRenamed[] = {
+      {"groom.particle_mass_kg", "groom.linear_density_kg_per_m", "kg/m"},
+      {"solver.stretch.stiffness_n_per_m", "solver.stretch.axial_stiffness_n", "N per unit strain"},
+      {"solver.stretch.damping_ns_per_m", "solver.stretch.damping_n_s", "N s"},
+      {"solver.bend.stiffness_n_per_m", "solver.bend.stiffness_n_m2", "N m^2"},
+      {"solver.bend.damping_ns_per_m", "solver.bend.damping_n_s", "N s"},
+      {"solver.bend.smoothing_edges", "solver.bend.smoothing_length_m", "m"},
+      {"solver.core.stiffness_n_per_m", "solver.core.stiffness_n", "N per unit strain"},
+      {"solver.core.damping_ns_per_m", "solver.core.damping_n_s", "N s"},
+      {"solver.core.smoothing_edges", "solver.core.smoothing_length_m", "m"},
+      {"solver.curl.weight_n_per_m", "solver.curl.weight_n", "N"},
+      {"solver.cohesion.lin_stiffness_n_per_m", "solver.cohesion.lin_stiffness_n_per_m3",
+       "N/m per m^2"},
+  };
+  for (const Renamed& r : kRenamed)
+    if (name == r.old_name)
+      return name + ": no longer a parameter: parameters are per length of strand, so that the " +
+             "same hair at any particle count is the same hair; use " + r.new_name + " (" + r.unit +
+             "; docs/physics.md §2.11 converts)";
+  return name + ": unknown parameter";
+}
+
 bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
                      SceneConfig* scene, bool* needs_rebuild, std::string* why) {
   if (names.size() != values.size()) {
@@ -337,16 +401,16 @@ bool applyParameters(const std::vector<std::string>& names, const std::vector<do
     for (const ParamRef& r : table)
       if (r.name == names[k]) ref = &r;
     if (!ref) {
-      if (why) *why = names[k] + ": unknown parameter";
+      if (why) *why = unknownParameterMessage(names[k]);
       return false;
     }
     if (!ref->setFromDouble(values[k], why)) return false;
     rebuild = rebuild || ref->needs_rebuild;
     // The sag-free rest parameters are solved from these too (sag_free.cpp).
     sag_input = sag_input || ref->name.rfind("solver.gravity_m_s2.", 0) == 0 ||
-                ref->name == "solver.stretch.stiffness_n_per_m" ||
+                ref->name == "solver.stretch.axial_stiffness_n" ||
                 ref->name == "solver.stretch.strain_limit" ||
-                ref->name == "solver.bend.stiffness_n_per_m";
+                ref->name == "solver.bend.stiffness_n_m2";
   }
   rebuild = rebuild || (sag_input && copy.solver.sag_free);
   if (!copy.validate(why)) return false;
@@ -369,7 +433,10 @@ struct YamlWalker {
 
   bool setScalar(const std::string& key, const YAML::Node& node) {
     auto it = table.find(key);
-    if (it == table.end()) return fail(key + ": unknown key");
+    if (it == table.end()) {
+      const std::string message = unknownParameterMessage(key);
+      return fail(message == key + ": unknown parameter" ? key + ": unknown key" : message);
+    }
     const ParamRef& ref = *it->second;
     const std::string text = node.Scalar();
     try {
@@ -613,11 +680,12 @@ SceneConfig builtinScene() {
   s.groom.particles = 32;
   s.groom.scalp_axis = Vec3(-0.45, 0.0, 1.0);  // the patch leaves the face free
   s.groom.scalp_half_angle_deg = 65.0;
-  // Soft curls that drape on the head (the solver defaults hold curls up like a bush); the bend
-  // damping stays at critical, inside the flutter bound.
-  s.solver.bend.stiffness_n_per_m = 10.0;
-  s.solver.bend.damping_ns_per_m = 0.063;
-  s.solver.core.stiffness_n_per_m = 10.0;
+  // Soft curls that drape on the head (the solver defaults hold curls up like a bush): k_b = 10
+  // N/m, c_b = 0.063 N s/m (critical, inside the flutter bound) and k_c = 10 N/m at the default
+  // 8.06 mm edges.
+  s.solver.bend.stiffness_n_m2 = 1.9e-4;
+  s.solver.bend.damping_n_s = 5.1e-4;
+  s.solver.core.stiffness_n = 0.08;
   s.saturation.root = 0.0;
   s.saturation.tip = 0.8;  // wet toward the tips
   s.head.capsules.push_back({"neck", Vec3(-0.01, 0.0, -0.06), Vec3(-0.02, 0.0, -0.25), 0.055});

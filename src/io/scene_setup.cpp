@@ -31,6 +31,7 @@ bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why, HairImp
   options.offset_m = scene.groom_file.offset_m;
   options.resample_particles = scene.groom_file.resample_particles;
   options.resample_edge_m = scene.groom_file.resample_edge_m;
+  options.min_edge_m = scene.groom_file.min_edge_m;
   options.head_center_m = scene.head.ellipsoid.center_m;
   Groom imported;
   HairImportReport imported_report;
@@ -49,7 +50,7 @@ bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* wh
   Groom groom;
   HairImportReport r;
   if (!makeGroom(scene, &groom, why, &r)) return false;
-  if (!buildModel(groom, scene.groom.particle_mass_kg, scene.head, scene.solver, model, why))
+  if (!buildModel(groom, scene.groom.linear_density_kg_per_m, scene.head, scene.solver, model, why))
     return false;
   if (report != nullptr) *report = std::move(r);
   return true;

@@ -142,9 +142,9 @@ void WetCurlyHairNode::init() {
       "wet_curly_hair: %s; %d strands, %d particles; frame %.6f s (%.3g Hz) in %d substeps; "
       "head pose %s -> %s over tf2 (wait <= %.3f s); %zu analytic obstacle(s); cohesion %s",
       scene_source_.c_str(), model_.strandCount(), model_.particleCount(), frame_s_,
-      config_.publish_rate, substepCount(scene_.solver, frame_s_), config_.world_frame.c_str(),
-      config_.head_frame.c_str(), config_.tf_timeout_s, obstacles_.analytic.size(),
-      scene_.solver.cohesion.mode.c_str());
+      config_.publish_rate, substepCount(model_, scene_.solver, frame_s_),
+      config_.world_frame.c_str(), config_.head_frame.c_str(), config_.tf_timeout_s,
+      obstacles_.analytic.size(), scene_.solver.cohesion.mode.c_str());
 }
 
 WetCurlyHairNode::~WetCurlyHairNode() {
@@ -427,7 +427,7 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->step = step_;
   s->reset_count = reset_count_;
   s->frame_s = frame_s_;
-  s->substeps = substepCount(scene_.solver, frame_s_);
+  s->substeps = substepCount(model_, scene_.solver, frame_s_);
   s->substep_s = frame_s_ / std::max(1, s->substeps);
   s->skipped_frames = skipped_frames_;
   s->markers_published = markers_published_;
@@ -768,7 +768,8 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
       for (const ParamRef& r : table)
         if (r.name == req.string_names[k]) ref = &r;
       if (!ref) {
-        res.message = "refused, nothing changed: " + req.string_names[k] + ": unknown parameter";
+        res.message =
+            "refused, nothing changed: " + io::unknownParameterMessage(req.string_names[k]);
         return true;
       }
       if (ref->type != ParamRef::Type::kString) {
@@ -824,6 +825,10 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
       model_ = std::move(model);
       strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
       resetHairLocked(head_pose_, "parameters changed the model");
+    } else {
+      // Stiffness, damping and curl weight live in the model as per-edge constants; the copy
+      // was validated whole, so this cannot fail.
+      updateSpringConstants(scene_.solver, &model_, &why);
     }
   }
   res.reset = rebuild;
@@ -862,7 +867,7 @@ bool WetCurlyHairNode::onGetParameters(GetParameters::Request& req, GetParameter
       for (const ParamRef& r : table)
         if (r.name == n) ref = &r;
       if (!ref) {
-        res.message = n + ": unknown parameter (ask with no names for the full list)";
+        res.message = io::unknownParameterMessage(n) + " (ask with no names for the full list)";
         return true;
       }
       refs.push_back(ref);

@@ -2,6 +2,7 @@
 
 #include <XmlRpcValue.h>
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -200,6 +201,13 @@ bool sceneFromRos(const ros::NodeHandle& pnh, io::SceneConfig* scene, std::strin
       const std::string rel = full.substr(prefix.size());
       const std::string top = rel.substr(0, rel.find('/'));
       if (namespaces.count(top) && !known.count(rel)) {
+        std::string dotted = rel;
+        std::replace(dotted.begin(), dotted.end(), '/', '.');
+        const std::string renamed = io::unknownParameterMessage(dotted);
+        if (renamed != dotted + ": unknown parameter") {
+          *why = "~" + rel + " (" + renamed + ")";
+          return false;
+        }
         *why = "~" + rel +
                ": not a scene parameter (see ~get_parameters or docs/runner.md for the "
                "names; lists such as head.capsules are set in the scene file)";

@@ -624,7 +624,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.strands = model.strandCount();
   s.strands_skipped = static_cast<int>(import_report.skipped.size());
   s.particles = model.particleCount();
-  s.substep_s = frame / substepCount(scene.solver, frame);
+  s.substep_s = frame / substepCount(model, scene.solver, frame);
   FrameMeasurements measurements(scene, model, obstacles, options, frames);
   measurements.timed(kMeasureRigidMotion, [&] { measureRigidMotion(scene, model, frames, &s); });
 

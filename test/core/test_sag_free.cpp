@@ -56,7 +56,8 @@ Groom arbitraryGroom(int strands) {
 HairModel makeModel(const Groom& g, const SolverConfig& c) {
   HairModel m;
   std::string why;
-  EXPECT_TRUE(buildModel(g, 1e-4, HeadShape(), c, &m, &why)) << why;
+  EXPECT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &m, &why))
+      << why;
   return m;
 }
 
@@ -80,10 +81,9 @@ Vec3List restPoseForces(const HairModel& m, const SolverConfig& c) {
     for (int i = 0; i < n; ++i) f[i] = m.mass_kg[begin + i] * c.gravity_m_s2;
     for (int i = 0; i + 1 < n; ++i) {
       const Vec3 e = p[i + 1] - p[i];
-      const Vec3 fs =
-          stretchForce(e, m.rest_edge_m[begin + i], c.stretch.stiffness_n_per_m) +
-          bendForce(e, frames[i] * m.bend_local_target[begin + i], c.bend.stiffness_n_per_m) +
-          coreForce(b[i], m.core_rest_m[begin + i], c.core.stiffness_n_per_m);
+      const Vec3 fs = stretchForce(e, m.rest_edge_m[begin + i], m.stretch_k[begin + i]) +
+                      bendForce(e, frames[i] * m.bend_local_target[begin + i], m.bend_k[s]) +
+                      coreForce(b[i], m.core_rest_m[begin + i], m.core_k[s]);
       f[i] += fs;
       f[i + 1] -= fs;
     }
@@ -165,9 +165,9 @@ TEST(SagFree, NetForceAtTheGroomIsZeroForAnyGroom) {
     EXPECT_LT(worstResidual(t, ct), 1e-9);
     // The soft scene springs of the built-in scene.
     SolverConfig soft = c;
-    soft.bend.stiffness_n_per_m = 10.0;
-    soft.bend.damping_ns_per_m = 0.063;
-    soft.core.stiffness_n_per_m = 10.0;
+    soft.bend.stiffness_n_m2 = 1.9e-4;
+    soft.bend.damping_n_s = 5.1e-4;
+    soft.core.stiffness_n = 0.08;
     EXPECT_LT(worstResidual(makeModel(g, soft), soft), 1e-9);
   }
 }
@@ -197,9 +197,9 @@ TEST(SagFree, CurlyStrandsOnAStillHeadKeepTheirGroom) {
   for (int soft = 0; soft < 2; ++soft) {
     SolverConfig c;
     if (soft) {
-      c.bend.stiffness_n_per_m = 10.0;
-      c.bend.damping_ns_per_m = 0.063;
-      c.core.stiffness_n_per_m = 10.0;
+      c.bend.stiffness_n_m2 = 1.9e-4;
+      c.bend.damping_n_s = 5.1e-4;
+      c.core.stiffness_n = 0.08;
     }
     const Groom g = generated(0.01, 12);
     const Deviation off = deviation(makeModel(g, c), runStill(makeModel(g, c), c, 2.0));
@@ -223,9 +223,9 @@ TEST(SagFree, TheEquilibriumIsStable) {
   for (int soft = 0; soft < 2; ++soft) {
     SolverConfig c;
     if (soft) {
-      c.bend.stiffness_n_per_m = 10.0;
-      c.bend.damping_ns_per_m = 0.063;
-      c.core.stiffness_n_per_m = 10.0;
+      c.bend.stiffness_n_m2 = 1.9e-4;
+      c.bend.damping_n_s = 5.1e-4;
+      c.core.stiffness_n = 0.08;
     }
     c.sag_free = true;
     const HairModel m = makeModel(generated(0.01, 12), c);
@@ -270,7 +270,7 @@ TEST(SagFree, RestStaysRestWithoutGravity) {
 TEST(SagFree, ValidatedAndRebuiltOnItsInputs) {
   SolverConfig c;
   c.sag_free = true;
-  c.bend.stiffness_n_per_m = 0.0;
+  c.bend.stiffness_n_m2 = 0.0;
   std::string why;
   EXPECT_FALSE(c.validate("solver.", &why));
   EXPECT_NE(why.find("solver.sag_free"), std::string::npos) << why;
@@ -288,11 +288,9 @@ TEST(SagFree, ValidatedAndRebuiltOnItsInputs) {
   ASSERT_TRUE(io::applyParameters({"solver.gravity_m_s2.z"}, {-9.81}, &scene, &rebuild, &why));
   EXPECT_TRUE(rebuild);
   ASSERT_TRUE(
-      io::applyParameters({"solver.bend.stiffness_n_per_m"}, {12.0}, &scene, &rebuild, &why));
+      io::applyParameters({"solver.bend.stiffness_n_m2"}, {2.2e-4}, &scene, &rebuild, &why));
   EXPECT_TRUE(rebuild);
-  ASSERT_TRUE(
-      io::applyParameters({"solver.bend.damping_ns_per_m"}, {0.07}, &scene, &rebuild, &why));
+  ASSERT_TRUE(io::applyParameters({"solver.bend.damping_n_s"}, {5.6e-4}, &scene, &rebuild, &why));
   EXPECT_FALSE(rebuild);
-  EXPECT_FALSE(
-      io::applyParameters({"solver.bend.stiffness_n_per_m"}, {0.0}, &scene, &rebuild, &why));
+  EXPECT_FALSE(io::applyParameters({"solver.bend.stiffness_n_m2"}, {0.0}, &scene, &rebuild, &why));
 }

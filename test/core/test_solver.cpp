@@ -28,7 +28,8 @@ Groom curlyGroom(int strands, int particles = 32) {
 HairModel makeModel(const Groom& g, const SolverConfig& c) {
   HairModel m;
   std::string why;
-  EXPECT_TRUE(buildModel(g, 1e-4, HeadShape(), c, &m, &why)) << why;
+  EXPECT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &m, &why))
+      << why;
   return m;
 }
 
@@ -74,7 +75,9 @@ TEST(Solver, CurlyStrandAtRestStaysAtRest) {
 TEST(Solver, HangingStraightChainStretchesAsItsWeightSays) {
   // A straight chain hanging down from a root: edge i carries the weight of the particles below
   // it. Eq. (4) compares whole vectors, k_b (e - t) with |t| = |e0|, so on a straight chain the
-  // bending spring is a second axial spring: the stretch is (n - 1 - i) m g / (k_s + k_b).
+  // bending spring is a second axial spring: the stretch is W_i / (k_s + k_b), with the per-length
+  // constants k_s = EA / L, k_b = B / (L alpha_b^2) and W_i the weight below edge i: rho g L per
+  // interior particle, half that at the tip (lumped masses), rho g L (n - 1.5 - i).
   // Core spring off (its smoothed curve would share the load unevenly).
   Groom g;
   const int n = 32;
@@ -83,35 +86,46 @@ TEST(Solver, HangingStraightChainStretchesAsItsWeightSays) {
   g.strand_offsets = {0, static_cast<uint32_t>(n)};
   g.root_normals = {Vec3(0, 0, -1)};
   SolverConfig c;
-  c.core.stiffness_n_per_m = 0.0;
-  c.core.damping_ns_per_m = 0.0;
+  c.core.stiffness_n = 0.0;
+  c.core.damping_n_s = 0.0;
   c.collision.head_enabled = false;
   const HairModel m = makeModel(g, c);
   HairState s = makeState(m, Pose(), Twist());
-  run(m, c, HeadMotionConfig(), 3.0, &s, [](double, const HairState&, const StepStats&) {});
-  const double mg = 1e-4 * 9.81;
+  run(m, c, HeadMotionConfig(), 6.0, &s, [](double, const HairState&, const StepStats&) {});
+  const double rho = GroomConfig().linear_density_kg_per_m;
+  const double alpha = c.bend.smoothing_length_m;  // 6 edges: above the flutter bound of 4
+  const double k =
+      c.stretch.axial_stiffness_n / edge + c.bend.stiffness_n_m2 / (edge * alpha * alpha);
   for (int i = 0; i + 1 < n; ++i) {
-    const double expected =
-        (n - 1 - i) * mg / (c.stretch.stiffness_n_per_m + c.bend.stiffness_n_per_m);
+    const double expected = rho * 9.81 * edge * (n - 1.5 - i) / k;
     const double got = (s.position[i + 1] - s.position[i]).norm() - edge;
     EXPECT_NEAR(got, expected, 0.01 * expected) << "edge " << i;
   }
 }
 
 TEST(Solver, RigidTranslationKeepsTheShape) {
-  SolverConfig c;
-  c.gravity_m_s2.setZero();
-  const HairModel m = makeModel(curlyGroom(4), c);
-  HeadMotionConfig motion;
-  motion.type = "linear";
-  motion.speed_m_s = 0.7;
-  motion.axis = Vec3(1, 2, -0.5);
-  HairState s = makeState(m, headPose(motion, 0.0), headTwist(motion, 0.0));
-  double worst = 0.0;
-  run(m, c, motion, 2.0, &s, [&](double t, const HairState& st, const StepStats&) {
-    worst = std::max(worst, shapeChange(m, st, headPose(motion, t)));
-  });
-  EXPECT_LT(worst, 1e-6);
+  // In double the shape holds to round-off. In float, positions are known to 2^-24 of their
+  // distance from the head (2e-8 m at 0.36 m, 8e-8 of a 25 cm strand): the springs turn that
+  // rounding into force noise on every substep, a floor of ~1e-6 of the strand length that does
+  // not grow (measured 1.1e-6 at most over 2 s, 0.6-0.9e-6 at every quarter second). Bound: 25
+  // times that resolution.
+  for (const char* layout : {"double4", "float8"}) {
+    SolverConfig c;
+    c.integrator.lane_layout = layout;
+    c.gravity_m_s2.setZero();
+    const HairModel m = makeModel(curlyGroom(4), c);
+    HeadMotionConfig motion;
+    motion.type = "linear";
+    motion.speed_m_s = 0.7;
+    motion.axis = Vec3(1, 2, -0.5);
+    HairState s = makeState(m, headPose(motion, 0.0), headTwist(motion, 0.0));
+    double worst = 0.0;
+    run(m, c, motion, 2.0, &s, [&](double t, const HairState& st, const StepStats&) {
+      worst = std::max(worst, shapeChange(m, st, headPose(motion, t)));
+    });
+    const double resolution = std::ldexp(0.36, -24) / 0.25;
+    EXPECT_LT(worst, std::string(layout) == "double4" ? 1e-12 : 25.0 * resolution) << layout;
+  }
 }
 
 namespace {
@@ -122,11 +136,9 @@ namespace {
 double spinShapeChange(double rate_hz, double stiffness_scale, double seconds) {
   SolverConfig c;
   c.gravity_m_s2.setZero();
-  for (double* k :
-       {&c.stretch.stiffness_n_per_m, &c.bend.stiffness_n_per_m, &c.core.stiffness_n_per_m})
+  for (double* k : {&c.stretch.axial_stiffness_n, &c.bend.stiffness_n_m2, &c.core.stiffness_n})
     *k *= stiffness_scale;
-  for (double* d :
-       {&c.stretch.damping_ns_per_m, &c.bend.damping_ns_per_m, &c.core.damping_ns_per_m})
+  for (double* d : {&c.stretch.damping_n_s, &c.bend.damping_n_s, &c.core.damping_n_s})
     *d *= std::sqrt(stiffness_scale);
   c.integrator.substep_s /= std::sqrt(stiffness_scale);
   const HairModel m = makeModel(curlyGroom(4), c);
@@ -174,19 +186,29 @@ TEST(Solver, EdgeStrainNeverExceedsTheLimit) {
 
 namespace {
 
-/// Max particle speed after `seconds` of a single curly strand hanging still under gravity.
-double settledSpeed(double alpha_edges, double damping_ratio, double seconds,
-                    double substep = 2e-4) {
+/// Max particle speed after `seconds` of a single curly strand (32 particles, edges L = 25 cm /
+/// 31) hanging still under gravity, with alpha_b = alpha_edges L and c_b at damping_ratio of
+/// critical, 2 sqrt(k_b rho L). buildModel's raise to the flutter bounds only with `stabilize`.
+double settledSpeed(double alpha_edges, double damping_ratio, double seconds, double substep = 2e-4,
+                    bool stabilize = false) {
   SolverConfig c;
-  c.bend.smoothing_edges = alpha_edges;
-  c.bend.damping_ns_per_m = damping_ratio * 2.0 * std::sqrt(c.bend.stiffness_n_per_m * 1e-4);
-  c.integrator.substep_s = substep;
-  c.collision.head_enabled = false;
   GroomConfig gc;
   gc.strands = 1;
   gc.jitter = 0.0;
+  const double l = gc.length_m / (gc.particles - 1), rho = gc.linear_density_kg_per_m;
+  const double alpha = alpha_edges * l;
+  c.bend.smoothing_length_m = alpha;
+  const double k_b = c.bend.stiffness_n_m2 / (l * alpha * alpha);
+  c.bend.damping_n_s = damping_ratio * 2.0 * std::sqrt(k_b * rho * l) * l;  // c_b = D_b / L
+  c.integrator.substep_s = substep;
+  c.collision.head_enabled = false;
   HairModel m;
-  buildModelUnchecked(generateGroom(gc, EllipsoidShape()), 1e-4, HeadShape(), c, &m);
+  const Groom g = generateGroom(gc, EllipsoidShape());
+  std::string why;
+  if (stabilize)
+    EXPECT_TRUE(buildModel(g, rho, HeadShape(), c, &m, &why)) << why;
+  else
+    buildModelUnchecked(g, rho, HeadShape(), c, &m);
   HairState s = makeState(m, Pose(), Twist());
   run(m, c, HeadMotionConfig(), seconds, &s, [](double, const HairState&, const StepStats&) {});
   return maxSpeed(m, s);
@@ -215,17 +237,36 @@ TEST(Solver, BendingFlutterBoundOnBothSides) {
       << "short smoothing flutters even when critically damped";
   EXPECT_GT(settledSpeed(2.0, 1.0, 3.0, 5e-5), 0.1) << "and at a 4x smaller step";
   EXPECT_GT(settledSpeed(kMinBendSmoothingEdges, 0.25, 3.0), 0.1) << "too little damping flutters";
-  // The config refuses what flutters.
-  std::string why;
-  BendConfig b;
-  b.smoothing_edges = kMinBendSmoothingEdges - 0.1;
-  EXPECT_FALSE(b.validate("solver.bend.", &why));
-  EXPECT_NE(why.find("solver.bend.smoothing_edges"), std::string::npos);
+  // buildModel raises what would flutter to the bounds (a resolution too coarse for the
+  // configured alpha_b and c_b), so that both settle.
+  EXPECT_LT(settledSpeed(2.0, 1.0, 3.0, 2e-4, true), 1e-3);
+  EXPECT_LT(settledSpeed(kMinBendSmoothingEdges, 0.25, 4.0, 2e-4, true), 1e-3);
+}
+
+TEST(Solver, BuildModelRaisesBendingToTheFlutterBoundsAndCountsIt) {
+  GroomConfig gc;
+  gc.strands = 3;
+  gc.particles = 16;  // 17 mm edges: the default alpha_b of 48 mm is 2.9 of them
+  const Groom g = generateGroom(gc, EllipsoidShape());
   SolverConfig c;
-  c.bend.damping_ns_per_m = 0.45 * 2.0 * std::sqrt(c.bend.stiffness_n_per_m * 1e-4);
   HairModel m;
-  EXPECT_FALSE(buildModel(curlyGroom(1), 1e-4, HeadShape(), c, &m, &why));
-  EXPECT_NE(why.find("solver.bend.damping_ns_per_m"), std::string::npos);
+  std::string why;
+  ASSERT_TRUE(buildModel(g, gc.linear_density_kg_per_m, HeadShape(), c, &m, &why)) << why;
+  EXPECT_EQ(m.bend_stabilized_strands, 3);
+  for (int s = 0; s < 3; ++s) {
+    const double l = m.mean_edge_m[s];
+    EXPECT_NEAR(m.beta_bend[s], smoothingBeta(l, kMinBendSmoothingEdges * l), 1e-15);
+    const double alpha = kMinBendSmoothingEdges * l;
+    EXPECT_NEAR(m.bend_k[s], c.bend.stiffness_n_m2 / (l * alpha * alpha), 1e-12 * m.bend_k[s]);
+    const double critical = 2.0 * std::sqrt(m.bend_k[s] * gc.linear_density_kg_per_m * l);
+    EXPECT_GE(m.bend_c[s], kMinBendDampingRatio * critical * (1.0 - 1e-12));
+  }
+  gc.particles = 64;  // 4 mm edges: the defaults are inside both bounds, nothing raised
+  ASSERT_TRUE(buildModel(generateGroom(gc, EllipsoidShape()), gc.linear_density_kg_per_m,
+                         HeadShape(), c, &m, &why))
+      << why;
+  EXPECT_EQ(m.bend_stabilized_strands, 0);
+  EXPECT_NEAR(m.bend_c[0], c.bend.damping_n_s / m.mean_edge_m[0], 1e-12);
 }
 
 TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
@@ -234,11 +275,13 @@ TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
   //
   // Measured finding (docs/physics.md §2.6 "Energy"): the bending force of eq. (4) is not the
   // gradient of an energy (frames come from the current curve; BendForceIsNotAnEnergyGradient
-  // below). Once the hair has settled (kinetic energy below 1e-8 J) it creeps toward the
-  // equilibrium of that force, which is not the minimum of the frame-fixed energy: the total then
-  // rises by about 4e-8 J, 7e-7 of itself, between t = 4 s and 6 s, with the kinetic energy under
-  // 1e-10 J. That phase is asserted separately, with its measured size, so a change is seen either
-  // way.
+  // below). Once the hair has nearly settled (kinetic energy below 1e-6 J, speeds of mm/s) it
+  // creeps toward the equilibrium of that force, which is not the minimum of the frame-fixed
+  // energy: with the per-length parameters the total rises by 3.1e-6 J, 6e-5 of itself, between
+  // t = 2 s and 3 s (kinetic 1.4e-7 -> 3e-9 J; the gravity energy rises, the springs' falls),
+  // then stays flat to 1e-9 J. That phase is asserted separately, with its measured size (bound
+  // about 1.5 times it), so a change is seen either way; the energy-consistent bending force of
+  // issue 16 is what removes it.
   SolverConfig c;
   const HairModel m = makeModel(curlyGroom(20), c);
   HeadMotionConfig still;
@@ -249,14 +292,14 @@ TEST(Solver, EnergyDoesNotGrowWithoutDriving) {
   run(m, c, still, 8.0, &s, [&](double t, const HairState&, const StepStats&) {
     if (++frame % 60 != 0) return;
     const EnergyParts e = energy(m, c, Pose(), &s);
-    if (previous.kinetic > 1e-8) {
+    if (previous.kinetic > 1e-6) {
       EXPECT_LE(e.total(), previous.total()) << "energy grew in the second ending at t=" << t;
     } else {
       creep = std::max(creep, e.total() - previous.total());
     }
     previous = e;
   });
-  EXPECT_LT(creep, 1e-6 * previous.total()) << "post-settling creep of the pseudo-energy";
+  EXPECT_LT(creep, 1e-4 * previous.total()) << "post-settling creep of the pseudo-energy";
   EXPECT_LT(previous.kinetic, 1e-12);
 }
 
@@ -293,7 +336,7 @@ TEST(Solver, BendForceIsNotAnEnergyGradient) {
   transportFrames(m.root_frame_head[0], d.data(), m.particleCount() - 1, frames.data());
   auto f = [&](int e) {
     return bendForce(s.position[e + 1] - s.position[e], frames[e] * m.bend_local_target[e],
-                     c.bend.stiffness_n_per_m);
+                     m.bend_k[0]);
   };
   const Vec3 applied = f(i) - f(i - 1);
   // Measured: 2.4 % apart here; finite differences are good to ~1e-6, so 1 % is a clear gap.
@@ -327,9 +370,70 @@ TEST(Solver, NonFiniteStrandIsRepairedAndCountedAlone) {
 TEST(Solver, SubstepsSplitTheFrameEvenly) {
   SolverConfig c;
   c.integrator.substep_s = 2e-4;
-  EXPECT_EQ(substepCount(c, 1.0 / 60.0), 84);
-  EXPECT_EQ(substepCount(c, 2e-4), 1);
-  EXPECT_EQ(substepCount(c, 0.0), 0);
+  const HairModel m = makeModel(curlyGroom(2), c);  // explicit bound 2.3e-4 s at 32 particles
+  EXPECT_EQ(substepCount(m, c, 1.0 / 60.0), 84);
+  EXPECT_EQ(substepCount(m, c, 2e-4), 1);
+  EXPECT_EQ(substepCount(m, c, 0.0), 0);
+}
+
+TEST(Solver, UpdatedSpringConstantsEqualARebuild) {
+  // What set_parameters applies without a rebuild (stiffness, damping, curl weight) gives the
+  // model a rebuild with the new values would give; an invalid config changes nothing.
+  SolverConfig a, b;
+  b.stretch.axial_stiffness_n *= 2.0;
+  b.stretch.damping_n_s *= 0.5;
+  b.bend.stiffness_n_m2 *= 3.0;
+  b.bend.damping_n_s *= 0.1;  // below the flutter bound at 16 particles: raised in both
+  b.core.stiffness_n *= 0.25;
+  b.core.damping_n_s = 0.0;
+  b.curl.weight_n *= 4.0;
+  const Groom g = curlyGroom(3, 16);
+  HairModel updated = makeModel(g, a);
+  std::string why;
+  ASSERT_TRUE(updateSpringConstants(b, &updated, &why)) << why;
+  const HairModel rebuilt = makeModel(g, b);
+  EXPECT_EQ(updated.stretch_k, rebuilt.stretch_k);
+  EXPECT_EQ(updated.stretch_c, rebuilt.stretch_c);
+  EXPECT_EQ(updated.bend_k, rebuilt.bend_k);
+  EXPECT_EQ(updated.bend_c, rebuilt.bend_c);
+  EXPECT_EQ(updated.core_k, rebuilt.core_k);
+  EXPECT_EQ(updated.core_c, rebuilt.core_c);
+  EXPECT_EQ(updated.curl_k, rebuilt.curl_k);
+  EXPECT_EQ(updated.explicit_substep_bound_s, rebuilt.explicit_substep_bound_s);
+  EXPECT_EQ(updated.max_damping_per_mass, rebuilt.max_damping_per_mass);
+  EXPECT_EQ(updated.bend_stabilized_strands, rebuilt.bend_stabilized_strands);
+  b.stretch.axial_stiffness_n = -1.0;
+  const HairModel before = updated;
+  EXPECT_FALSE(updateSpringConstants(b, &updated, &why));
+  EXPECT_NE(why.find("solver.stretch.axial_stiffness_n"), std::string::npos) << why;
+  EXPECT_EQ(updated.stretch_k, before.stretch_k);
+}
+
+TEST(Solver, ExplicitSubstepFollowsTheResolution) {
+  // symplectic Euler is stable for h omega_max < 2; omega_max^2 <= max_i 2 (k_{i-1} + k_i) / m_i
+  // grows as 1 / L^2 with per-length parameters, so the explicit substep shrinks with the edge.
+  // The implicit methods keep the configured substep.
+  SolverConfig c;
+  c.integrator.substep_s = 2e-4;
+  for (int particles : {32, 64, 128}) {
+    const HairModel m = makeModel(curlyGroom(2, particles), c);
+    double lambda = 0.0;
+    for (int s = 0; s < m.strandCount(); ++s) {
+      const double shared = m.bend_k[s] + m.core_k[s] + m.curl_k[s];
+      for (int i = 1; i < m.strandSize(s); ++i) {
+        const int k = m.strandBegin(s) + i;
+        const double out = i + 1 < m.strandSize(s) ? m.stretch_k[k] + shared : 0.0;
+        lambda = std::max(lambda, 2.0 * (m.stretch_k[k - 1] + shared + out) / m.mass_kg[k]);
+      }
+    }
+    const double bound = kExplicitStabilityFraction * 2.0 / std::sqrt(lambda);
+    EXPECT_NEAR(m.explicit_substep_bound_s, bound, 1e-12 * bound);
+    EXPECT_DOUBLE_EQ(effectiveSubstep(m, c), std::min(2e-4, bound)) << particles;
+    if (particles >= 64) EXPECT_LT(effectiveSubstep(m, c), 2e-4) << particles;
+    c.integrator.method = "backward_euler";
+    EXPECT_DOUBLE_EQ(effectiveSubstep(m, c), 2e-4);
+    c.integrator.method = "explicit";
+  }
 }
 
 TEST(Solver, HairDrapesOnTheHeadWithoutPassingThrough) {
@@ -361,12 +465,13 @@ struct ChordCase {
     g.strand_offsets = {0, 2};
     g.points = {root, root + Vec3(0, 0, kRest)};
     g.root_normals = {Vec3::UnitZ()};
-    config.stretch.stiffness_n_per_m = 0.0;
-    config.stretch.damping_ns_per_m = 0.0;
-    config.bend.stiffness_n_per_m = 0.0;
-    config.bend.damping_ns_per_m = 0.0;
-    config.core.stiffness_n_per_m = 0.0;
-    config.core.damping_ns_per_m = 0.0;
+    config.stretch.axial_stiffness_n = 0.0;
+    config.stretch.damping_n_s = 0.0;
+    config.bend.stiffness_n_m2 = 0.0;
+    config.bend.damping_n_s = 0.0;
+    config.core.stiffness_n = 0.0;
+    config.core.damping_n_s = 0.0;
+    config.curl.weight_n = 0.0;
     config.gravity_m_s2 = Vec3::Zero();
     config.stiffness.global_factor = 1.0;
     config.integrator.substep_s = kFrame;
@@ -417,8 +522,8 @@ TEST(Solver, HairRestingOnTheHeadRunsNoExtraConstraintRounds) {
   // strand that touched can have pulled it back in. Soft bend and core springs (the built-in
   // scene's) so that the curls settle onto the scalp.
   SolverConfig c;
-  c.bend.stiffness_n_per_m = 10.0;
-  c.core.stiffness_n_per_m = 10.0;
+  c.bend.stiffness_n_m2 = 1.9e-4;  // the built-in scene's (io::builtinScene)
+  c.core.stiffness_n = 0.08;
   const HairModel m = makeModel(curlyGroom(30), c);
   HeadMotionConfig still;
   still.type = "still";

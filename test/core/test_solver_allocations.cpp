@@ -159,7 +159,8 @@ HeapCalls heapCallsInSteps(const std::string& method, int threads, int warmup, i
   g.strands = 40;
   HairModel model;
   std::string why;
-  EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), 1e-4, HeadShape(), c, &model, &why))
+  EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), GroomConfig().linear_density_kg_per_m,
+                         HeadShape(), c, &model, &why))
       << why;
   Obstacles obstacles;
   AnalyticObstacle sphere;

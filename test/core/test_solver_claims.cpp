@@ -17,8 +17,8 @@ constexpr double kFrame = 1.0 / 60.0;
 HairModel makeModel(const GroomConfig& g, const SolverConfig& c) {
   HairModel m;
   std::string why;
-  EXPECT_TRUE(
-      buildModel(generateGroom(g, EllipsoidShape()), g.particle_mass_kg, HeadShape(), c, &m, &why))
+  EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(),
+                         c, &m, &why))
       << why;
   return m;
 }
@@ -44,7 +44,7 @@ TEST(SolverClaims, CurlRotationFollowsTheAxisWithItsTimeConstant) {
     for (double tc : {0.1, 0.3, 0.0}) {
       SolverConfig c;
       c.gravity_m_s2 = Vec3::Zero();
-      c.curl.weight_n_per_m = 1e-9;
+      c.curl.weight_n = 1e-11;
       c.curl.rotation_time_constant_s = tc;
       c.cohesion.mode = "off";
       c.integrator.strand_lanes = lanes;
@@ -152,7 +152,7 @@ double stretchEnergy(const HairModel& m, const SolverConfig& c, const HairState&
       e += 0.5 * m.mass_kg[i] * s.velocity[i].squaredNorm() * (i > b ? 1.0 : 0.0);
     for (int i = b; i + 1 < b + n; ++i) {
       const double d = (s.position[i + 1] - s.position[i]).norm() - m.rest_edge_m[i];
-      e += 0.5 * c.stretch.stiffness_n_per_m * d * d;
+      e += 0.5 * m.stretch_k[i] * d * d;
     }
   }
   return e;
@@ -165,8 +165,8 @@ double stretchEnergy(const HairModel& m, const SolverConfig& c, const HairState&
 TEST(SolverClaims, InelasticStrainLimitNeverAddsEnergy) {
   SolverConfig c;
   c.gravity_m_s2 = Vec3::Zero();
-  c.bend.stiffness_n_per_m = 0.0;
-  c.core.stiffness_n_per_m = 0.0;
+  c.bend.stiffness_n_m2 = 0.0;
+  c.core.stiffness_n = 0.0;
   c.curl.enabled = false;
   c.collision.head_enabled = false;
   c.cohesion.mode = "off";

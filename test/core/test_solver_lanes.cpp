@@ -82,7 +82,9 @@ Outcome run(const Groom& groom, const std::string& method, bool lanes, ObstacleK
   c.integrator.lane_layout = layout.name();
   Outcome r;
   std::string why;
-  EXPECT_TRUE(buildModel(groom, 1e-4, HeadShape(), c, &r.model, &why)) << why;
+  EXPECT_TRUE(
+      buildModel(groom, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &r.model, &why))
+      << why;
   HeadMotionConfig nod;
   nod.type = "nod";
   nod.freq_hz = 1.5;
@@ -211,9 +213,10 @@ TEST(SolverLanes, DistanceCacheIsExactOnAGridField) {
   // Fewer evaluations than particle-substeps of the strands in reach: the cache did skip, in
   // both paths (they run the same stepper).
   SolverConfig c;
+  c.integrator.method = "theta";
   c.integrator.substep_s = 1e-3;
   const uint64_t in_reach = one.total.strands_near_obstacles * (lanes.model.strandSize(0) - 1) *
-                            substepCount(c, 1.0 / 60.0);
+                            substepCount(lanes.model, c, 1.0 / 60.0);
   EXPECT_LT(lanes.total.obstacle_particle_substeps, in_reach / 2);
   EXPECT_EQ(lanes.total.obstacle_particle_substeps, one.total.obstacle_particle_substeps);
 }

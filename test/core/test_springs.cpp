@@ -142,7 +142,7 @@ TEST(Springs, ImplicitEdgeBlockIsThetaHTimesDampingPlusThetaHTimesStiffness) {
   // forces with respect to the edge (frames held), plus the core's share (coreLocalGain) of its
   // own Jacobian along b; C that of the damping forces with respect to the relative velocity.
   // Generic edges, a straight one along the core direction, and an edge antiparallel to b.
-  EdgeImplicitParams q;
+  EdgeImplicitParams<double> q;
   q.k_s = 500, q.k_b = 10, q.k_c = 10, q.c_s = 0.11, q.c_b = 0.063, q.c_c = 0.035;
   q.theta_h = 0.6 * 2e-3;
   const double gain = coreLocalGain(0.095), curl_k = 25.0 * 0.7;

@@ -28,8 +28,9 @@ struct Scene {
     g.strands = 4;
     g.particles = 24;
     std::string why;
-    EXPECT_TRUE(
-        buildModel(generateGroom(g, EllipsoidShape()), 1e-4, HeadShape(), config, &model, &why))
+    EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()),
+                           GroomConfig().linear_density_kg_per_m, HeadShape(), config, &model,
+                           &why))
         << why;
     state = makeState(model, Pose(), Twist());
     SaturationCommand wet;

@@ -10,7 +10,10 @@
 #include <string>
 #include <vector>
 
+#include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/io/hair_file.h"
+#include "wet_curly_hair/io/scene.h"
 
 namespace wet_curly_hair {
 namespace io {
@@ -783,6 +786,49 @@ TEST(HairImportSkips, MixedFileLoadsWithCountNamesAndRemainingStrands) {
   }
   std::string why;
   EXPECT_TRUE(g.validate(&why)) << why;
+}
+
+TEST(HairImportSkips, MinEdgeSkipsStubsAndCoarsensFineStrandsSoTheDefaultsRunIt) {
+  // The scene's default groom_file.min_edge_m (1 mm): the 0.1 mm and 2 um strands are skipped as
+  // too short to bend, named; the rest keep mean edges of at least 1 mm, so the model builds with
+  // the default parameters and its explicit substep is that of millimetre edges, not of the
+  // micrometre ones (which would set about 1e-7 s for the whole groom, docs/physics.md §2.9).
+  HairImportOptions opts;
+  opts.scale = 0.01;
+  opts.min_edge_m = io::GroomFileConfig().min_edge_m;
+  ASSERT_EQ(opts.min_edge_m, 0.001);
+  HairFileData file = mixedFile();
+  addStrand(&file, line(Vec3(8, 0, 11), 1.0, 40));  // 11: 1 cm in 39 edges of 0.26 mm.
+  Groom g;
+  HairImportReport report;
+  std::string error;
+  ASSERT_TRUE(importHairAsGroom(file, opts, &g, &error, &report)) << error;
+  ASSERT_EQ(report.skipped.size(), 8u);
+  EXPECT_EQ(report.skipped[2].index, 4);
+  EXPECT_EQ(report.skipped[2].reason.rfind("length 0.0001", 0), 0u) << report.skipped[2].reason;
+  EXPECT_NE(report.skipped[2].reason.find("shorter than two edges of min_edge_m 0.001 m"),
+            std::string::npos)
+      << report.skipped[2].reason;
+  EXPECT_EQ(report.skipped.back().index, 10);
+  ASSERT_EQ(g.strandCount(), 4);
+  for (int s = 0; s < g.strandCount(); ++s) {
+    double length = 0.0;
+    for (uint32_t i = g.strand_offsets[s]; i + 1 < g.strand_offsets[s + 1]; ++i)
+      length += (g.points[i + 1] - g.points[i]).norm();
+    EXPECT_GE(length / (g.strandSize(s) - 1), opts.min_edge_m * (1.0 - 1e-9)) << s;
+  }
+  // The 1 cm strand: floor(L / 1 mm) + 1 points, 10 or 11 as its float32 length rounds.
+  EXPECT_GE(g.strandSize(3), 10);
+  EXPECT_LE(g.strandSize(3), 11);
+  SolverConfig c;
+  HairModel m;
+  ASSERT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &m, &error))
+      << error;
+  // The stiffest particle is on 1 mm edges: k_s = EA / 1 mm, m = rho 1 mm.
+  const double k = c.stretch.axial_stiffness_n / 1e-3,
+               mass = GroomConfig().linear_density_kg_per_m * 1e-3;
+  EXPECT_GT(m.explicit_substep_bound_s,
+            0.5 * kExplicitStabilityFraction * 2.0 / std::sqrt(4.0 * k / mass));
 }
 
 TEST(HairImportSkips, NothingSkippedGivesNoWarning) {

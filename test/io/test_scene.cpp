@@ -32,7 +32,7 @@ TEST(Scene, ParsesNestedKeysAndVectors) {
 groom: {strands: 12, particles: 20, curl_radius_m: 0.008}
 solver:
   gravity_m_s2: [0, 0, -3.7]
-  bend: {stiffness_n_per_m: 80}
+  bend: {stiffness_n_m2: 8.0e-4}
   collision: {head_enabled: false}
 motion: {type: spin, rate_hz: 1.5}
 head:
@@ -45,7 +45,7 @@ head:
   EXPECT_EQ(scene.groom.strands, 12);
   EXPECT_EQ(scene.groom.particles, 20);
   EXPECT_DOUBLE_EQ(scene.solver.gravity_m_s2.z(), -3.7);
-  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_per_m, 80.0);
+  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_m2, 8.0e-4);
   EXPECT_FALSE(scene.solver.collision.head_enabled);
   EXPECT_EQ(scene.motion.type, "spin");
   EXPECT_DOUBLE_EQ(scene.head.ellipsoid.radii_m.y(), 0.08);
@@ -54,15 +54,16 @@ head:
 }
 
 TEST(Scene, BadValuesAreRefusedWithTheKeyNamed) {
-  expectRefused("solver: {stretch: {stiffness_n_per_m: -5}}", "solver.stretch.stiffness_n_per_m");
-  expectRefused("solver: {bend: {damping_ns_per_m: .nan}}", "solver.bend.damping_ns_per_m");
+  expectRefused("solver: {stretch: {axial_stiffness_n: -5}}", "solver.stretch.axial_stiffness_n");
+  expectRefused("solver: {bend: {damping_n_s: .nan}}", "solver.bend.damping_n_s");
+  expectRefused("groom: {linear_density_kg_per_m: 0}", "groom.linear_density_kg_per_m");
   expectRefused("groom: {particles: 0}", "groom.particles");
   expectRefused("groom: {strands: 2.5}", "groom.strands");
   expectRefused("groom: {stranz: 10}", "groom.stranz");
   expectRefused("solver: {stretch: {stiffnes_n_per_m: 1}}", "solver.stretch.stiffnes_n_per_m");
   expectRefused("motion: {type: wobble}", "motion.type");
   expectRefused("solver: {gravity_m_s2: [0, 1]}", "solver.gravity_m_s2");
-  expectRefused("solver: {bend: {smoothing_edges: 2}}", "solver.bend.smoothing_edges");
+  expectRefused("solver: {bend: {smoothing_length_m: -0.01}}", "solver.bend.smoothing_length_m");
   expectRefused("solver: {collision: {head_enabled: maybe}}", "solver.collision.head_enabled");
   expectRefused("head: {capsules: [{name: x, a_m: [0, 0], b_m: [0, 0, 1], radius_m: 1}]}",
                 "head.capsules[0].a_m");
@@ -73,7 +74,7 @@ TEST(Scene, BadValuesAreRefusedWithTheKeyNamed) {
 
 TEST(Scene, RoundTripsThroughYaml) {
   SceneConfig scene = builtinScene();
-  scene.solver.core.stiffness_n_per_m = 77.25;
+  scene.solver.core.stiffness_n = 0.7725;
   scene.groom_file.file = "some file.hair";
   SceneConfig back;
   std::string why;
@@ -104,22 +105,69 @@ TEST(Parameters, SetIsAllOrNothingAndNamesTheBadOne) {
   const std::string before = sceneToYaml(scene);
   std::string why;
   bool rebuild = false;
-  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.nope"}, {60.0, 1.0},
-                               &scene, &rebuild, &why));
+  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_m2", "solver.nope"}, {6e-4, 1.0}, &scene,
+                               &rebuild, &why));
   EXPECT_NE(why.find("solver.nope"), std::string::npos);
-  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_per_m", "solver.stretch.strain_limit"},
-                               {60.0, -1.0}, &scene, &rebuild, &why));
+  EXPECT_FALSE(applyParameters({"solver.bend.stiffness_n_m2", "solver.stretch.strain_limit"},
+                               {6e-4, -1.0}, &scene, &rebuild, &why));
   EXPECT_NE(why.find("solver.stretch.strain_limit"), std::string::npos);
   EXPECT_FALSE(applyParameters({"groom.strands"}, {std::nan("")}, &scene, &rebuild, &why));
   EXPECT_FALSE(applyParameters({"groom.strands"}, {1.0, 2.0}, &scene, &rebuild, &why));
   EXPECT_FALSE(applyParameters({"motion.type"}, {1.0}, &scene, &rebuild, &why));
   EXPECT_EQ(sceneToYaml(scene), before);
-  ASSERT_TRUE(applyParameters({"solver.bend.stiffness_n_per_m"}, {60.0}, &scene, &rebuild, &why))
+  ASSERT_TRUE(applyParameters({"solver.bend.stiffness_n_m2"}, {6e-4}, &scene, &rebuild, &why))
       << why;
-  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_per_m, 60.0);
+  EXPECT_DOUBLE_EQ(scene.solver.bend.stiffness_n_m2, 6e-4);
   EXPECT_FALSE(rebuild);
   ASSERT_TRUE(applyParameters({"groom.strands"}, {40}, &scene, &rebuild, &why)) << why;
   EXPECT_TRUE(rebuild);
+}
+
+TEST(Parameters, OldPerParticleAndPerEdgeKeysAreRefusedWithTheNewKeyAndUnit) {
+  // Every key the per-length parameters replaced, in a scene file and through set_parameters:
+  // refused, nothing changed, and the message names the key to use and its unit.
+  const struct {
+    const char *yaml, *old_name, *new_name, *unit;
+  } kCases[] = {
+      {"groom: {particle_mass_kg: 1e-4}", "groom.particle_mass_kg", "groom.linear_density_kg_per_m",
+       "kg/m"},
+      {"solver: {stretch: {stiffness_n_per_m: 500}}", "solver.stretch.stiffness_n_per_m",
+       "solver.stretch.axial_stiffness_n", "N per unit strain"},
+      {"solver: {stretch: {damping_ns_per_m: 0.1}}", "solver.stretch.damping_ns_per_m",
+       "solver.stretch.damping_n_s", "N s"},
+      {"solver: {bend: {stiffness_n_per_m: 10}}", "solver.bend.stiffness_n_per_m",
+       "solver.bend.stiffness_n_m2", "N m^2"},
+      {"solver: {bend: {damping_ns_per_m: 0.06}}", "solver.bend.damping_ns_per_m",
+       "solver.bend.damping_n_s", "N s"},
+      {"solver: {bend: {smoothing_edges: 6}}", "solver.bend.smoothing_edges",
+       "solver.bend.smoothing_length_m", "m"},
+      {"solver: {core: {stiffness_n_per_m: 10}}", "solver.core.stiffness_n_per_m",
+       "solver.core.stiffness_n", "N per unit strain"},
+      {"solver: {core: {damping_ns_per_m: 0.03}}", "solver.core.damping_ns_per_m",
+       "solver.core.damping_n_s", "N s"},
+      {"solver: {core: {smoothing_edges: 10}}", "solver.core.smoothing_edges",
+       "solver.core.smoothing_length_m", "m"},
+      {"solver: {curl: {weight_n_per_m: 25}}", "solver.curl.weight_n_per_m", "solver.curl.weight_n",
+       "N"},
+      {"solver: {cohesion: {lin_stiffness_n_per_m: 0.004}}",
+       "solver.cohesion.lin_stiffness_n_per_m", "solver.cohesion.lin_stiffness_n_per_m3",
+       "N/m per m^2"},
+  };
+  for (const auto& c : kCases) {
+    SceneConfig scene = builtinScene();
+    const std::string before = sceneToYaml(scene);
+    std::string why;
+    EXPECT_FALSE(parseSceneYaml(c.yaml, &scene, &why)) << c.yaml;
+    for (const char* part : {c.old_name, c.new_name, c.unit})
+      EXPECT_NE(why.find(part), std::string::npos) << c.yaml << ": " << why;
+    bool rebuild = false;
+    why.clear();
+    scene = builtinScene();
+    EXPECT_FALSE(applyParameters({c.old_name}, {1.0}, &scene, &rebuild, &why));
+    for (const char* part : {c.old_name, c.new_name, c.unit})
+      EXPECT_NE(why.find(part), std::string::npos) << c.old_name << ": " << why;
+    EXPECT_EQ(sceneToYaml(scene), before);
+  }
 }
 
 TEST(Parameters, NamesAreUnique) {

@@ -91,9 +91,9 @@ TEST_F(NodeServices, GetListsEveryScenParameterAndRefusesUnknownNames) {
   EXPECT_EQ(all.needs_reset.size(), table.size());
   // start-up parameters given as ROS namespaces reach the scene
   EXPECT_DOUBLE_EQ(get("groom.strands"), 20.0);
-  EXPECT_DOUBLE_EQ(get("solver.bend.damping_ns_per_m"), 0.2);
+  EXPECT_DOUBLE_EQ(get("solver.bend.damping_n_s"), 2e-3);
   GetParameters srv;
-  srv.request.names = {"solver.bend.stiffness_n_per_m", "solver.no_such_thing"};
+  srv.request.names = {"solver.bend.stiffness_n_m2", "solver.no_such_thing"};
   ASSERT_TRUE(wch_test::call(get_, &srv));
   EXPECT_FALSE(srv.response.success);
   EXPECT_NE(srv.response.message.find("solver.no_such_thing"), std::string::npos)
@@ -102,14 +102,14 @@ TEST_F(NodeServices, GetListsEveryScenParameterAndRefusesUnknownNames) {
 
 TEST_F(NodeServices, SetThenGetReturnsTheValueAndMirrorsIt) {
   SetParameters::Response r =
-      set({"solver.bend.stiffness_n_per_m", "solver.stretch.strain_limit"}, {42.5, 0.04});
+      set({"solver.bend.stiffness_n_m2", "solver.stretch.strain_limit"}, {4.25e-4, 0.04});
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_FALSE(r.reset);
-  EXPECT_DOUBLE_EQ(get("solver.bend.stiffness_n_per_m"), 42.5);
+  EXPECT_DOUBLE_EQ(get("solver.bend.stiffness_n_m2"), 4.25e-4);
   EXPECT_DOUBLE_EQ(get("solver.stretch.strain_limit"), 0.04);
   double mirrored = 0.0;
-  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver/bend/stiffness_n_per_m", mirrored));
-  EXPECT_DOUBLE_EQ(mirrored, 42.5);
+  ASSERT_TRUE(nh_.getParam("/wet_curly_hair/solver/bend/stiffness_n_m2", mirrored));
+  EXPECT_DOUBLE_EQ(mirrored, 4.25e-4);
   // strings go through string_names / string_values
   r = set({}, {}, {"solver.cohesion.mode"}, {"off"});
   ASSERT_TRUE(r.success) << r.message;
@@ -133,7 +133,7 @@ TEST_F(NodeServices, InvalidSetsAreRefusedWithAMessageAndChangeNothing) {
     const char* must_mention;
   };
   const std::vector<Case> cases = {
-      {"NaN", {"solver.bend.stiffness_n_per_m"}, {kNaN}, {}, {}, "solver.bend.stiffness_n_per_m"},
+      {"NaN", {"solver.bend.stiffness_n_m2"}, {kNaN}, {}, {}, "solver.bend.stiffness_n_m2"},
       {"out of range",
        {"solver.stretch.strain_limit"},
        {-1.0},
@@ -141,12 +141,7 @@ TEST_F(NodeServices, InvalidSetsAreRefusedWithAMessageAndChangeNothing) {
        {},
        "solver.stretch.strain_limit"},
       {"unknown name", {"solver.bend.stifness"}, {1.0}, {}, {}, "solver.bend.stifness"},
-      {"wrong array length",
-       {"solver.bend.stiffness_n_per_m", "groom.seed"},
-       {1.0},
-       {},
-       {},
-       "length"},
+      {"wrong array length", {"solver.bend.stiffness_n_m2", "groom.seed"}, {1.0}, {}, {}, "length"},
       {"not an integer", {"groom.strands"}, {2.5}, {}, {}, "groom.strands"},
       {"bool not 0/1",
        {"solver.collision.head_enabled"},
@@ -155,11 +150,11 @@ TEST_F(NodeServices, InvalidSetsAreRefusedWithAMessageAndChangeNothing) {
        {},
        "solver.collision.head_enabled"},
       {"one bad among good ones",
-       {"solver.bend.stiffness_n_per_m", "solver.core.damping_ns_per_m"},
-       {33.0, kNaN},
+       {"solver.bend.stiffness_n_m2", "solver.core.damping_n_s"},
+       {3.3e-4, kNaN},
        {},
        {},
-       "solver.core.damping_ns_per_m"},
+       "solver.core.damping_n_s"},
       {"string value not allowed",
        {},
        {},
@@ -169,9 +164,9 @@ TEST_F(NodeServices, InvalidSetsAreRefusedWithAMessageAndChangeNothing) {
       {"string for a number",
        {},
        {},
-       {"solver.bend.stiffness_n_per_m"},
+       {"solver.bend.stiffness_n_m2"},
        {"12"},
-       "solver.bend.stiffness_n_per_m"},
+       "solver.bend.stiffness_n_m2"},
       {"number for a string", {"solver.cohesion.mode"}, {1.0}, {}, {}, "solver.cohesion.mode"},
       {"string arrays differ",
        {},
@@ -390,7 +385,8 @@ int runNode(const std::string& args, std::string* output) {
 
 TEST(NodeStartup, InvalidParametersAreRefusedByName) {
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"_solver/stretch/stiffness_n_per_m:=-5", "solver.stretch.stiffness_n_per_m"},
+      {"_solver/stretch/axial_stiffness_n:=-5", "solver.stretch.axial_stiffness_n"},
+      {"_solver/stretch/stiffness_n_per_m:=500", "solver.stretch.axial_stiffness_n"},
       {"_solver/bend/stifness_n_per_m:=3", "~solver/bend/stifness_n_per_m"},
       {"_groom/strands:=many", "~groom/strands"},
       {"_publish_rate:=0", "~publish_rate"},

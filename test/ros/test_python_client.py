@@ -73,21 +73,21 @@ class PythonClient(unittest.TestCase):
         self.assertGreater(s.substeps, 0)
 
     def test_parameters_round_trip(self):
-        r = self.set(names=["solver.core.stiffness_n_per_m"], values=[45.0],
+        r = self.set(names=["solver.core.stiffness_n"], values=[0.45],
                      string_names=[], string_values=[])
         self.assertTrue(r.success, r.message)
-        g = self.get(names=["solver.core.stiffness_n_per_m", "solver.cohesion.mode"])
+        g = self.get(names=["solver.core.stiffness_n", "solver.cohesion.mode"])
         self.assertTrue(g.success, g.message)
-        self.assertEqual(g.values[0], 45.0)
+        self.assertEqual(g.values[0], 0.45)
         self.assertTrue(math.isnan(g.values[1]))
         self.assertEqual(g.string_values[1], "ours")
         self.assertEqual(g.types, ["double", "string"])
-        self.assertEqual(rospy.get_param(NODE + "/solver/core/stiffness_n_per_m"), 45.0)
-        bad = self.set(names=["solver.core.stiffness_n_per_m"], values=[float("nan")],
+        self.assertEqual(rospy.get_param(NODE + "/solver/core/stiffness_n"), 0.45)
+        bad = self.set(names=["solver.core.stiffness_n"], values=[float("nan")],
                        string_names=[], string_values=[])
         self.assertFalse(bad.success)
-        self.assertIn("solver.core.stiffness_n_per_m", bad.message)
-        self.assertEqual(self.get(names=["solver.core.stiffness_n_per_m"]).values[0], 45.0)
+        self.assertIn("solver.core.stiffness_n", bad.message)
+        self.assertEqual(self.get(names=["solver.core.stiffness_n"]).values[0], 0.45)
 
     def test_saturation_and_reset(self):
         req = SetSaturationRequest(strands=[0, 1], root_value=0.0, tip_value=1.0)

@@ -173,7 +173,7 @@ TEST(Conversions, SaturationRequestsMapToCommandsAndBadCodesAreRefused) {
 }
 
 TEST(RosParams, DottedNamesBecomeNamespaces) {
-  EXPECT_EQ(rosParamName("solver.bend.stiffness_n_per_m"), "solver/bend/stiffness_n_per_m");
+  EXPECT_EQ(rosParamName("solver.bend.stiffness_n_m2"), "solver/bend/stiffness_n_m2");
 }
 
 TEST(HeadMotion, ChainComposesMotionsOnTheBase) {

@@ -10,11 +10,18 @@
 
 namespace wet_curly_hair {
 
-/// Stretch spring, eq. (1), with Selle-style strain limiting (docs/physics.md §2.2, §3).
+/// Reference edge length of the default parameters: the built-in groom's 25 cm strands at 32
+/// particles. The per-length defaults below are the per-edge constants the project was tuned
+/// with at that resolution, converted by the scalings of docs/physics.md §2.11.
+constexpr double kDefaultEdgeM = 0.25 / 31.0;
+
+/// Stretch spring, eq. (1), with Selle-style strain limiting (docs/physics.md §2.2, §3). Per
+/// length (docs/physics.md §2.11): edge i gets k_s = EA / L_i and c_s = C_s / L_i, so a strand
+/// refined n times is the same hair.
 struct StretchConfig {
-  double stiffness_n_per_m = 500.0;  ///< k_s, N/m.
-  double damping_ns_per_m = 0.11;    ///< c_s, N·s/m (about 0.25 of critical for 1e-4 kg).
-  double strain_limit = 0.05;        ///< largest edge strain (L - L0) / L0 after each substep.
+  double axial_stiffness_n = 4.0;  ///< EA, N per unit strain (k_s = 500 N/m at 8.06 mm edges).
+  double damping_n_s = 9.0e-4;     ///< C_s, N s per unit strain rate (c_s = 0.11 N s/m there).
+  double strain_limit = 0.05;      ///< largest edge strain (L - L0) / L0 after each substep.
   /// Velocity clamp inside the damping pass (Iben §2.2a): the axial relative velocity of an edge
   /// may change its length by at most this fraction of the rest length per substep.
   double strain_rate_limit_per_substep = 0.01;
@@ -24,25 +31,27 @@ struct StretchConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Bending spring, eq. (4), on frames parallel-transported along the alpha_b-smoothed curve.
+/// Bending spring, eq. (4), on frames parallel-transported along the alpha_b-smoothed curve. Per
+/// length (docs/physics.md §2.11): a strand with mean edge L gets k_b = B / (L alpha_b^2) and
+/// c_b = D_b / L. At coarse resolution buildModel lengthens alpha_b to kMinBendSmoothingEdges
+/// edges and raises c_b to kMinBendDampingRatio of critical, where the follower-like force
+/// would otherwise flutter (docs/physics.md §10.15), and counts the strands it changed.
 struct BendConfig {
-  double stiffness_n_per_m = 50.0;  ///< k_b, N/m.
-  /// c_b, N·s/m (perpendicular relative velocity): about critical, 2 sqrt(k_b m), for 1e-4 kg.
-  /// Below half of critical the bending spring flutters (kMinBendDampingRatio, checked by
-  /// buildModel, which knows the masses).
-  double damping_ns_per_m = 0.14;
-  /// alpha_b, the IIR smoothing length of eq. (2), in mean rest edge lengths (dimensionless).
-  /// Below kMinBendSmoothingEdges the follower-like bending force self-excites (docs/physics.md
-  /// §10.15).
-  double smoothing_edges = 6.0;
+  double stiffness_n_m2 = 9.4e-4;  ///< B, N m^2 (k_b = 50 N/m at 8.06 mm edges).
+  /// D_b, N s: c_b = D_b / L on the perpendicular relative velocity (0.14 N s/m at 8.06 mm
+  /// edges, about critical for the default density there).
+  double damping_n_s = 1.13e-3;
+  /// alpha_b, the IIR smoothing length of eq. (2), m (six default edges).
+  double smoothing_length_m = 0.048;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Core spring, eq. (5), on the alpha_c-smoothed curve: keeps curls from unwinding.
+/// Core spring, eq. (5), on the alpha_c-smoothed curve: keeps curls from unwinding. The same
+/// axial law as the stretch spring on the smoothed differences b_i: k_c = K_c / L, c_c = C_c / L.
 struct CoreSpringConfig {
-  double stiffness_n_per_m = 50.0;  ///< k_c, N/m.
-  double damping_ns_per_m = 0.035;  ///< c_c, N·s/m.
-  double smoothing_edges = 10.0;    ///< alpha_c in mean rest edge lengths.
+  double stiffness_n = 0.4;          ///< K_c, N per unit strain of b (k_c = 50 N/m at 8.06 mm).
+  double damping_n_s = 2.8e-4;       ///< C_c, N s (c_c = 0.035 N s/m at 8.06 mm).
+  double smoothing_length_m = 0.08;  ///< alpha_c, m (ten default edges).
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -111,7 +120,8 @@ struct IntegratorConfig {
   double teleport_angle_rad = 1.5;
   /// Explicit damping sub-iterations per substep (tau = dt / n). A minimum: the solver uses more
   /// when the substep needs them for the explicit damping to be stable, tau <= 0.9 m / (2 C) with
-  /// C = c_s + c_b + c_c (docs/physics.md §10.1); see dampingPassCount().
+  /// C the largest damping constant (c_s + c_b + c_c) at a particle of mass m (docs/physics.md
+  /// §10.1); see dampingPassCount().
   int damping_passes = 2;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -122,7 +132,9 @@ struct CurlConfig {
   /// "spring": the restoring target-edge variant of A10, k_w sigma (M h_edge - e) (default, chosen
   /// by measurement, docs/physics.md §1.2); "literal": eq. (9) as a couple w_h sigma M h_edge.
   std::string mode = "spring";
-  double weight_n_per_m = 25.0;   ///< w_h (spring: k_w), N/m; the force scales with saturation.
+  /// W, N: w_h (spring: k_w) = W / L for a strand of mean edge L (docs/physics.md §2.11; 25 N/m
+  /// at 8.06 mm edges); the force scales with saturation.
+  double weight_n = 0.2;
   double helix_radius_m = 0.006;  ///< r of eq. (6): the wet curl's radius, m.
   double helix_pitch_m = 0.018;   ///< rise per turn of the wet curl (2 pi p of eq. 6), m.
   /// M follows the strand's root-to-tip axis with this time constant (s; 0: at once, literal).
@@ -144,9 +156,11 @@ struct CohesionConfig {
   /// Include the particle itself in the Shepard weights of eq. (10) (A13). Chosen by measurement
   /// (docs/physics.md §1.3): without it p^w jumps when a neighbour enters the kernel support.
   bool include_self = true;
-  /// lin: attraction spring per particle pair, N/m. The default clumps the cohesion scene about as
-  /// much as "ours" does (docs/physics.md §1.3), so that the comparison is at equal clumping.
-  double lin_stiffness_n_per_m = 0.004;
+  /// lin: attraction spring between two pieces of strand, N/m per m of each (a particle pair
+  /// gets K l_i l_j with l the length a particle stands for, docs/physics.md §2.11). The default
+  /// (0.004 N/m per pair at 8.06 mm edges) clumps the cohesion scene about as much as "ours"
+  /// does (docs/physics.md §1.3), so that the comparison is at equal clumping.
+  double lin_stiffness_n_per_m3 = 60.0;
   /// kim: Akinci's gamma (force = gamma m_i m_j C(r) + gamma m_i (n_i - n_j), SI), calibrated
   /// the same way.
   double kim_surface_tension = 0.3;
@@ -215,7 +229,7 @@ struct SolverConfig {
   /// Sag-free start (docs/physics.md §8, docs/physics.md §8): buildModel solves the stretch rest
   /// lengths and bending targets so that the groom is an equilibrium under gravity_m_s2 on the
   /// head at its start pose (identity orientation, as every scene starts; makeSagFree takes
-  /// another head-frame gravity). Needs bend.stiffness_n_per_m > 0 when gravity is not zero.
+  /// another head-frame gravity). Needs bend.stiffness_n_m2 > 0 when gravity is not zero.
   bool sag_free = false;
   bool validate(const std::string& prefix, std::string* why) const;
 };
@@ -224,10 +238,17 @@ struct SolverConfig {
 /// on both sides by test/core/test_solver.cpp (BendingFlutter*), see docs/physics.md §2.6. The
 /// follower-like bending force self-excites at any step size when alpha_b is too short for its
 /// damping: at critical bend damping it flutters at 2 edge lengths and is calm at 3; at a quarter
-/// of critical it flutters at 4 and is calm at 5.
+/// of critical it flutters at 4 and is calm at 5. buildModel keeps every strand inside both
+/// bounds by lengthening alpha_b and raising c_b where the resolution is too coarse for them.
 constexpr double kMinBendSmoothingEdges = 4.0;
-/// Smallest bend damping ratio c_b / (2 sqrt(k_b m)), with m the particle mass.
+/// Smallest bend damping ratio c_b / (2 sqrt(k_b m)), with m = rho L the particle mass.
 constexpr double kMinBendDampingRatio = 0.5;
+/// The explicit integrator's substep is at most this fraction of 2 / omega_max, the stability
+/// limit of symplectic Euler on the stiffest particle (docs/physics.md §10.1): the solver splits
+/// a frame into more substeps when the resolution needs it. At the built-in scene's 32
+/// particles this is 2.3e-4 s on its shortest strands (10 % under 25 cm), above the default
+/// substep, which it leaves alone.
+constexpr double kExplicitStabilityFraction = 0.6;
 /// Largest solver thread count (per-thread scratch is allocated for this many at most).
 constexpr int kMaxSolverThreads = 64;
 

@@ -35,15 +35,17 @@ struct EllipsoidShape {
 
 /// Parameters of the generated groom (scene YAML section `groom`).
 struct GroomConfig {
-  int strands = 200;                 ///< number of strands.
-  int particles = 32;                ///< particles per strand, root included.
-  double length_m = 0.25;            ///< arc length of each strand, m.
-  double curl_radius_m = 0.01;       ///< helix radius, m; 0 gives straight hair.
-  double curl_pitch_m = 0.03;        ///< helix rise per turn, m (must be > 0 for curly hair).
-  double jitter = 0.1;               ///< relative random variation of radius, pitch, length.
-  int seed = 1;                      ///< random seed for root placement, phase and jitter.
-  double particle_mass_kg = 1e-4;    ///< mass of each non-root particle, kg.
-  double scalp_half_angle_deg = 70;  ///< roots lie within this angle of the scalp axis.
+  int strands = 200;            ///< number of strands.
+  int particles = 32;           ///< particles per strand, root included.
+  double length_m = 0.25;       ///< arc length of each strand, m.
+  double curl_radius_m = 0.01;  ///< helix radius, m; 0 gives straight hair.
+  double curl_pitch_m = 0.03;   ///< helix rise per turn, m (must be > 0 for curly hair).
+  double jitter = 0.1;          ///< relative random variation of radius, pitch, length.
+  int seed = 1;                 ///< random seed for root placement, phase and jitter.
+  /// rho, kg/m: particle i carries rho (L_{i-1} + L_i) / 2 (lumped; 1e-4 kg per interior particle
+  /// at the default 8.06 mm edges).
+  double linear_density_kg_per_m = 0.0124;
+  double scalp_half_angle_deg = 70;         ///< roots lie within this angle of the scalp axis.
   Vec3 scalp_axis = Vec3(-0.25, 0.0, 1.0);  ///< centre direction of the scalp patch (head frame).
   bool validate(const std::string& prefix, std::string* why) const;
 };

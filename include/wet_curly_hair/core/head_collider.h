@@ -136,9 +136,9 @@ struct HeadShape {
 /// do not explode. v_obstacle is the collider's velocity at x.
 template <typename S>
 WCH_INLINE void collideParticle(const LaneMask<S>& contact, const S& d, const V3<S>& n,
-                                double delta, double mu, const V3<S>& v_obstacle, V3<S>* x,
+                                const S& delta, double mu, const V3<S>& v_obstacle, V3<S>* x,
                                 V3<S>* v) {
-  *x = select(contact, *x + (splat<S>(delta) - d) * n, *x);
+  *x = select(contact, *x + (delta - d) * n, *x);
   const V3<S> vrel = *v - v_obstacle;
   const S vn = dot(vrel, n);
   const auto approaching = contact && (vn < splat<S>(0.0));

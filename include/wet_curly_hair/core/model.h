@@ -17,24 +17,50 @@ namespace wet_curly_hair {
 struct HairModel {
   std::vector<uint32_t> strand_offsets{0};  ///< strands + 1 entries.
   Vec3List rest_position_head;              ///< rest pose in the head frame, m.
-  std::vector<double> mass_kg;              ///< per particle (the root's is unused: kinematic).
-  std::vector<double> inv_mass;             ///< 1 / mass, 0 for roots.
-  std::vector<double> rest_edge_m;          ///< |e0_i| per edge.
-  Vec3List bend_local_target;               ///< e0_i in its rest frame, F0_i^T e0_i (§2.5).
-  std::vector<double> core_rest_m;          ///< |b0_i|, rest core difference lengths (eq. 5).
-  std::vector<double> mean_edge_m;          ///< per strand, l of A3.
-  std::vector<double> beta_bend;            ///< per strand, beta for alpha_b (eq. 2).
-  std::vector<double> beta_core;            ///< per strand, beta for alpha_c.
-  std::vector<double> strand_length_m;      ///< per strand, rest arc length.
-  Mat3List root_frame_head;                 ///< per strand, rest root frame in head frame.
-  HeadShape head;                           ///< head colliders, head frame.
+  /// Per particle, rho (L_{i-1} + L_i) / 2 with the groom's edges (the root's half edge only:
+  /// it is kinematic, the cohesion kernels still weigh it).
+  std::vector<double> mass_kg;
+  std::vector<double> inv_mass;        ///< 1 / mass, 0 for roots.
+  std::vector<double> length_share_m;  ///< per particle, the strand length it stands for.
+  /// Per particle, the signed distance of its rest position from the head (head frame): the
+  /// head collision offset of a particle is at most this (collideHeadParticles).
+  std::vector<double> rest_head_distance_m;
+  std::vector<double> rest_edge_m;      ///< |e0_i| per edge (sag-free may shorten it).
+  Vec3List bend_local_target;           ///< e0_i in its rest frame, F0_i^T e0_i (§2.5).
+  std::vector<double> core_rest_m;      ///< |b0_i|, rest core difference lengths (eq. 5).
+  std::vector<double> mean_edge_m;      ///< per strand, l of A3.
+  std::vector<double> beta_bend;        ///< per strand, beta for alpha_b (eq. 2).
+  std::vector<double> beta_core;        ///< per strand, beta for alpha_c.
+  std::vector<double> strand_length_m;  ///< per strand, rest arc length.
+  // Spring constants from the per-length parameters (docs/physics.md §2.11). Per edge: the
+  // stretch spring over the groom's edge length L_i. Per strand, over its mean edge L (the IIR
+  // curves of eq. 2 already treat a strand as uniform with that edge, A3): bend, core, curl.
+  std::vector<double> stretch_k;  ///< k_s = EA / L_i, N/m.
+  std::vector<double> stretch_c;  ///< c_s = C_s / L_i, N s/m.
+  std::vector<double> bend_k;     ///< k_b = B / (L alpha_b^2), N/m.
+  std::vector<double> bend_c;     ///< c_b = D_b / L, N s/m (raised to the flutter bound).
+  std::vector<double> core_k;     ///< k_c = K_c / L, N/m.
+  std::vector<double> core_c;     ///< c_c = C_c / L, N s/m.
+  std::vector<double> curl_k;     ///< w_h = W / L at saturation 1, N/m.
+  double linear_density_kg_per_m = 0.0;
+  /// Strands whose alpha_b or c_b buildModel raised to the flutter bounds (config.h): the
+  /// resolution was too coarse for the configured values.
+  int bend_stabilized_strands = 0;
+  /// The explicit integrator's largest stable substep, kExplicitStabilityFraction * 2 /
+  /// omega_max with omega_max^2 bounded by max_i 2 (k_{i-1} + k_i) / m_i (Gershgorin), k the sum
+  /// of every spring constant on the edge, s.
+  double explicit_substep_bound_s = 0.0;
+  /// Largest (damping constant of an edge) / (mass of one of its particles), 1/s: the explicit
+  /// damping passes need tau <= 0.9 / (2 of it) (docs/physics.md §10.1).
+  double max_damping_per_mass = 0.0;
+  Mat3List root_frame_head;  ///< per strand, rest root frame in head frame.
+  HeadShape head;            ///< head colliders, head frame.
   /// Curl exaggeration (eqs. 6-9): per edge the edge h_{i+1} - h_i of the strand's own helix
   /// (same particle count and mean edge length, A9), phase-matched to the rest pose; per strand
   /// the helix root-to-tip direction h^v (unit).
   Vec3List helix_edge;
   Vec3List helix_axis;
-  int max_strand_size = 0;   ///< largest particle count of any strand.
-  double min_mass_kg = 0.0;  ///< smallest non-root particle mass.
+  int max_strand_size = 0;  ///< largest particle count of any strand.
   /// Lattice nodes makeState allocates for the "grid" cohesion evaluation: enough for the hair's
   /// largest possible extent (cohesionGridNodeBound); 0 when the evaluation is "exact".
   size_t cohesion_grid_nodes = 0;
@@ -47,18 +73,29 @@ struct HairModel {
   }
 };
 
-/// Builds the model from a groom (head frame) and the solver config (the smoothing lengths and
-/// masses enter the precompute of docs/physics.md §9.1). Returns false with a reason on bad input.
-bool buildModel(const Groom& groom, double particle_mass_kg, const HeadShape& head,
+/// Builds the model from a groom (head frame), its linear density (kg/m) and the solver config
+/// (the smoothing lengths, masses and per-length spring constants enter the precompute of
+/// docs/physics.md §9.1, §2.11). Returns false with a reason on bad input: a refusal names a
+/// physical value (a strand that would hang past the strain limit under its own weight at any
+/// resolution), never the particle count.
+bool buildModel(const Groom& groom, double linear_density_kg_per_m, const HeadShape& head,
                 const SolverConfig& config, HairModel* model, std::string* why);
+
+/// Recomputes the spring constants (stretch_k ... curl_k, the stability bounds) of a built model
+/// from the per-length parameters of `config`, the rest geometry unchanged: what a parameter
+/// change that does not rebuild the model (stiffness, damping, curl weight) applies. Without
+/// sag-free only: the sag-free rest state depends on the stiffnesses (io::applyParameters asks
+/// for a rebuild then). Returns false with a reason on an invalid config, model unchanged.
+bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why);
 
 /// The helix of eq. (6) for one strand: `count` points with chord `edge_m` (A9), radius and rise
 /// per turn from the curl config; a straight line along +z when the radius is 0.
 Vec3List makeHelix(int count, double edge_m, double radius_m, double pitch_m);
 
-/// buildModel without validating: only for tests that probe outside the valid range (the
-/// flutter bound); the groom must still be structurally valid.
-void buildModelUnchecked(const Groom& groom, double particle_mass_kg, const HeadShape& head,
-                         const SolverConfig& config, HairModel* model);
+/// buildModel without validating and without raising alpha_b and c_b to the flutter bounds: only
+/// for tests that probe outside the valid range; the groom must still be structurally valid.
+void buildModelUnchecked(const Groom& groom, double linear_density_kg_per_m, const HeadShape& head,
+                         const SolverConfig& config, HairModel* model,
+                         bool stabilize_bending = false);
 
 }  // namespace wet_curly_hair

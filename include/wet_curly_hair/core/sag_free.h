@@ -28,7 +28,7 @@ constexpr double kSagFreeMaxPreloadOfStrainLimit = 0.5;
 /// `gravity_head_m_s2` (gravity in the HEAD frame at the start pose) on every non-root particle
 /// of the rest pose `model->rest_position_head`. Head contacts are ignored: the whole weight is
 /// carried by the strand (a particle resting on the scalp then presses on it with zero force).
-/// Needs config.bend.stiffness_n_per_m > 0 when gravity is not zero (SolverConfig::validate
+/// Needs config.bend.stiffness_n_m2 > 0 when gravity is not zero (SolverConfig::validate
 /// checks it for solver.sag_free). Call it on a freshly built model, once.
 void makeSagFree(const SolverConfig& config, const Vec3& gravity_head_m_s2, HairModel* model,
                  SagFreeStats* stats = nullptr);

@@ -146,32 +146,33 @@ struct EdgeImplicitTerms {
   M33<S> block;          ///< G, added to the pivots of both particles and coupling them.
   V3<S> explicit_force;  ///< segment force applied explicitly (F_i += f, F_{i+1} -= f).
 };
+template <typename S>
 struct EdgeImplicitParams {
-  double k_s, k_b, k_c, c_s, c_b, c_c;  ///< stiffness (N/m) and damping (N s/m) of the springs.
-  double theta_h;                       ///< theta times the substep, s.
+  S k_s, k_b, k_c, c_s, c_b, c_c;  ///< stiffness (N/m) and damping (N s/m) of the edge's springs.
+  S theta_h;                       ///< theta times the substep, s.
+  bool core_damping = true;        ///< false when c_c is 0 on every lane (skips its terms).
 };
 template <typename S>
-WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams& q, const V3<S>& e,
+WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams<S>& q, const V3<S>& e,
                                                   const V3<S>& dv, const S& rest, const V3<S>& b,
                                                   const S& core_rest, const V3<S>& nu,
                                                   const S& core_local_gain, const S& curl_stiffness,
                                                   const V3<S>& omega) {
-  const AxialJacobian<S> stretch = axialSpringJacobian(e, rest, splat<S>(q.k_s), kDirectionEpsilon);
+  const AxialJacobian<S> stretch = axialSpringJacobian(e, rest, q.k_s, kDirectionEpsilon);
   const AxialJacobian<S> core =
-      axialSpringJacobian(b, core_rest, splat<S>(q.k_c) * core_local_gain, kDirectionEpsilon);
-  const S th = splat<S>(q.theta_h);
+      axialSpringJacobian(b, core_rest, q.k_c * core_local_gain, kDirectionEpsilon);
+  const S th = q.theta_h;
   const S has_axis =
       select(dot(stretch.u, stretch.u) > splat<S>(0.0), splat<S>(1.0), splat<S>(0.0));
-  const S alpha = th * (splat<S>(q.c_b) + th * (stretch.isotropic + core.isotropic +
-                                                splat<S>(q.k_b) + curl_stiffness));
-  const S beta = th * (has_axis * splat<S>(q.c_s - q.c_b) + th * stretch.axial);
-  const S gamma = th * (splat<S>(q.c_c) * core_local_gain + th * core.axial);
+  const S alpha = th * (q.c_b + th * (stretch.isotropic + core.isotropic + q.k_b + curl_stiffness));
+  const S beta = th * (has_axis * (q.c_s - q.c_b) + th * stretch.axial);
+  const S gamma = th * (q.c_c * core_local_gain + th * core.axial);
   EdgeImplicitTerms<S> t;
   t.block = isotropicPlusDyads(alpha, beta, stretch.u, gamma, core.u);
-  t.explicit_force = splat<S>(-q.c_b) * cross(omega, e);
-  if (q.c_c > 0.0)
-    t.explicit_force += coreDampingForce(b, nu, splat<S>(q.c_c)) -
-                        (splat<S>(q.c_c) * core_local_gain * dot(core.u, dv)) * core.u;
+  t.explicit_force = -q.c_b * cross(omega, e);
+  if (q.core_damping)
+    t.explicit_force +=
+        coreDampingForce(b, nu, q.c_c) - (q.c_c * core_local_gain * dot(core.u, dv)) * core.u;
   return t;
 }
 

@@ -130,6 +130,15 @@ struct HairImportOptions {
   /// m: max(3, round(L / resample_edge_m) + 1) particles for a strand of arc length L (after
   /// scaling), so particles per strand follow its length. Exclusive with resample_particles.
   double resample_edge_m = 0.0;
+  /// 0: off; else the shortest mean edge an imported strand keeps, m. A strand shorter than two
+  /// such edges is skipped ("shorter than two edges of min_edge_m"); one whose mean edge is below
+  /// it is resampled at equal chords to max(3, floor(L / min_edge_m) + 1) particles, unless
+  /// resample_particles or resample_edge_m asks for a resampling of its own. Why: parameters are
+  /// per length, so a finer strand is the same hair with stiffer edges, and its explicit substep,
+  /// which every strand of the groom shares, shrinks with its shortest edge (docs/physics.md
+  /// §2.9): a 0.1 mm strand of 32 points would set 1e-7 s for the whole groom. A strand under
+  /// 2 mm cannot bend visibly against a bending smoothing length of 48 mm.
+  double min_edge_m = 0.0;
   /// Head centre in the output frame, m: root normals are normalize(root - head_center_m) (or the
   /// direction of the strand's first edge when the root is at the head centre).
   Vec3 head_center_m = Vec3::Zero();

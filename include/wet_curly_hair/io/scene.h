@@ -1,6 +1,6 @@
 // Scene files (YAML, yaml-cpp): groom, head, solver settings and scripted head motion, and the
 // table of dotted parameter names shared by the scene YAML, ROS parameters and the
-// set_parameters service ("solver.stretch.stiffness_n_per_m", "groom.strands", ...).
+// set_parameters service ("solver.stretch.axial_stiffness_n", "groom.strands", ...).
 #pragma once
 
 #include <functional>
@@ -26,6 +26,10 @@ struct GroomFileConfig {
   /// 0: off; else resample every strand to edges of about this length, m (particles per strand
   /// follow its length, at least 3). Exclusive with resample_particles.
   double resample_edge_m = 0.0;
+  /// Shortest edge an imported strand keeps, m (0: off): a strand sampled finer is resampled to
+  /// fewer particles (unless resample_* is set), and a strand shorter than two such edges is
+  /// skipped as too short to bend (HairImportOptions::min_edge_m).
+  double min_edge_m = 0.001;
 };
 
 /// Initial saturation: a root-to-tip ramp on every strand (scene section `saturation`).
@@ -71,7 +75,7 @@ struct SceneConfig {
 /// One named, typed parameter of a SceneConfig.
 struct ParamRef {
   enum class Type { kDouble, kInt, kBool, kString };
-  std::string name;  ///< dotted name, e.g. "solver.bend.stiffness_n_per_m".
+  std::string name;  ///< dotted name, e.g. "solver.bend.stiffness_n_m2".
   Type type;
   void* field;         ///< points into the SceneConfig the table was made for.
   std::string doc;     ///< unit and meaning.
@@ -86,10 +90,15 @@ struct ParamRef {
 /// The parameter table for `scene` (pointers into it: keep the scene alive and unmoved).
 std::vector<ParamRef> parameterTable(SceneConfig* scene);
 
+/// "<name>: unknown parameter", or for a key the per-length parameters replaced (a per-particle
+/// mass, a per-edge spring constant, a smoothing length in edges) the key that replaced it with
+/// its unit, so that an old scene or launch file fails with what to write instead.
+std::string unknownParameterMessage(const std::string& dotted_name);
+
 /// Applies name/value pairs all-or-nothing: on any unknown name, bad type or failed validation,
 /// *scene is unchanged and *why names the parameter. *needs_rebuild tells whether a change
 /// touched the groom, head or smoothing lengths (the model must be rebuilt), or, with
-/// solver.sag_free on, an input of the sag-free solve (gravity, k_s, k_b, strain limit).
+/// solver.sag_free on, an input of the sag-free solve (gravity, EA, B, strain limit).
 bool applyParameters(const std::vector<std::string>& names, const std::vector<double>& values,
                      SceneConfig* scene, bool* needs_rebuild, std::string* why);
 

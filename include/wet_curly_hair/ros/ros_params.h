@@ -34,13 +34,13 @@ struct NodeConfig {
   bool validate(std::string* why) const;
 };
 
-/// "solver.bend.stiffness_n_per_m" -> "solver/bend/stiffness_n_per_m" (relative to ~).
+/// "solver.bend.stiffness_n_m2" -> "solver/bend/stiffness_n_m2" (relative to ~).
 std::string rosParamName(const std::string& dotted);
 
 /// Reads the scene: `~scene` ("" or "builtin": the built-in scene; a .yaml scene file, read on
 /// top of the defaults as the offline runner does; a .hair file: the built-in scene with that
 /// groom), then every dotted scene parameter given as a private ROS parameter
-/// (~solver/bend/stiffness_n_per_m), then validates. Refuses a parameter of the wrong type, a
+/// (~solver/bend/stiffness_n_m2), then validates. Refuses a parameter of the wrong type, a
 /// private parameter under a scene namespace (groom, groom_file, head, solver, motion, run) that
 /// is not a scene parameter, and any invalid value; *why names the parameter. *source describes
 /// where the scene came from.

@@ -1,0 +1,199 @@
+// Speed against error in space and time (docs/convergence.md): a hanging curly strand under the
+// built-in scene's nod, simulated at 16 ... 128 particles with every integrator and a range of
+// substeps, against a reference fine in both (256 particles, the explicit method at its
+// resolution-following substep, at most 2.5e-5 s). The error is over the whole run: at every
+// sampled frame, the distance between the strand and the reference at 17 material points (equal
+// fractions of the arc length from the root; the grooms are sampled at equal chords, so particle
+// i of n sits at i / (n - 1) of the length), RMS over points and frames, over the strand length.
+// The cost is the wall time of step() per simulated second, median of `--runs` runs (default 3).
+// Writes convergence.csv and, with gnuplot, convergence.png (error against cost, one curve per
+// resolution) into --out (default .).
+// usage: bench_convergence [--out DIR] [--seconds T] [--runs N]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/core/state.h"
+
+using namespace wet_curly_hair;
+
+namespace {
+
+constexpr double kFrame = 1.0 / 60.0;
+constexpr int kSampleEvery = 3;      // frames between error samples
+constexpr int kMaterialPoints = 17;  // root to tip
+
+struct Setting {
+  int particles;
+  std::string method;
+  double substep_s;
+};
+
+struct Trace {
+  std::vector<std::vector<Vec3>> samples;  // per sampled frame, the material points
+  double wall_s = 0.0;
+  double length_m = 0.0;
+  double substep_used_s = 0.0;
+  bool finite = true;
+};
+
+Vec3 materialPoint(const HairState& s, int begin, int n, double fraction) {
+  const double x = fraction * (n - 1);
+  const int i = std::min(n - 2, static_cast<int>(std::floor(x)));
+  const double u = x - i;
+  return (1.0 - u) * s.position[begin + i] + u * s.position[begin + i + 1];
+}
+
+Trace simulate(const Setting& setting, double seconds) {
+  GroomConfig g;
+  g.strands = 1;
+  g.particles = setting.particles;
+  g.scalp_axis = Vec3(0, 0, -1);
+  SolverConfig c;
+  c.collision.head_enabled = false;
+  c.cohesion.mode = "off";
+  c.integrator.method = setting.method;
+  c.integrator.substep_s = setting.substep_s;
+  HairModel m;
+  std::string why;
+  Trace t;
+  if (!buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(), c, &m,
+                  &why)) {
+    std::fprintf(stderr, "bench_convergence: %s\n", why.c_str());
+    std::exit(2);
+  }
+  t.length_m = m.strand_length_m[0];
+  t.substep_used_s = effectiveSubstep(m, c);
+  HeadMotionConfig motion;
+  motion.type = "nod";  // the built-in scene's: 0.5 Hz, 0.3 rad
+  HairState s = makeState(m, headPose(motion, 0.0), headTwist(motion, 0.0));
+  std::fill(s.saturation.begin(), s.saturation.end(), 0.0);
+  const int frames = static_cast<int>(std::lround(seconds / kFrame));
+  for (int f = 0; f < frames; ++f) {
+    const StepInputs in{headPose(motion, f * kFrame), headPose(motion, (f + 1) * kFrame)};
+    const auto start = std::chrono::steady_clock::now();
+    step(m, c, in, kFrame, &s, nullptr);
+    t.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if ((f + 1) % kSampleEvery != 0) continue;
+    std::vector<Vec3> points;
+    for (int k = 0; k < kMaterialPoints; ++k) {
+      points.push_back(materialPoint(s, 0, m.strandSize(0), double(k) / (kMaterialPoints - 1)));
+      t.finite = t.finite && points.back().allFinite();
+    }
+    t.samples.push_back(points);
+  }
+  return t;
+}
+
+double rmsError(const Trace& a, const Trace& reference) {
+  double sum = 0.0;
+  size_t count = 0;
+  for (size_t f = 0; f < a.samples.size(); ++f)
+    for (int k = 0; k < kMaterialPoints; ++k, ++count)
+      sum += (a.samples[f][k] - reference.samples[f][k]).squaredNorm();
+  return std::sqrt(sum / std::max<size_t>(count, 1)) / reference.length_m;
+}
+
+std::string cpuName() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line, name = "unknown CPU", flags;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) == 0 && name == "unknown CPU")
+      name = line.substr(line.find(':') + 2);
+    if (line.rfind("flags", 0) == 0 && flags.empty()) flags = line;
+  }
+  return name +
+         (flags.find(" avx512f") != std::string::npos ? " (AVX-512)" : " (AVX2, no AVX-512)");
+}
+
+void plot(const std::string& dir, const std::vector<int>& resolutions) {
+  if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) {
+    std::printf("gnuplot not found: no convergence.png\n");
+    return;
+  }
+  std::string script = "set terminal pngcairo size 900,600\nset output '" + dir +
+                       "/convergence.png'\nset datafile separator ','\nset logscale xy\n"
+                       "set xlabel 'cost, wall s per simulated s (one strand)'\n"
+                       "set ylabel 'RMS error over the run / strand length'\n"
+                       "set title 'Hanging curly strand under a nod: space and time error'\n"
+                       "set key outside right\nplot ";
+  for (size_t k = 0; k < resolutions.size(); ++k) {
+    const std::string n = std::to_string(resolutions[k]);
+    script += std::string(k ? ", " : "") + "'" + dir + "/convergence.csv' using ($1==" + n +
+              " ? $5 : 1/0):6 with points pt 7 title '" + n + " particles'";
+  }
+  script += "\n";
+  const std::string path = dir + "/convergence.gp";
+  std::ofstream(path) << script;
+  if (std::system(("gnuplot '" + path + "'").c_str()) != 0)
+    std::printf("gnuplot failed on %s\n", path.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string out = ".";
+  double seconds = 2.0;
+  int runs = 3;
+  for (int k = 1; k + 1 < argc; k += 2) {
+    const std::string a = argv[k];
+    if (a == "--out")
+      out = argv[k + 1];
+    else if (a == "--seconds")
+      seconds = std::atof(argv[k + 1]);
+    else if (a == "--runs")
+      runs = std::max(1, std::atoi(argv[k + 1]));
+    else {
+      std::fprintf(stderr, "usage: bench_convergence [--out DIR] [--seconds T] [--runs N]\n");
+      return 2;
+    }
+  }
+  if (argc % 2 == 0 || !(seconds > 0.0)) {
+    std::fprintf(stderr, "usage: bench_convergence [--out DIR] [--seconds T] [--runs N]\n");
+    return 2;
+  }
+  std::printf("%s; %g s of the nod, error against 256 particles (explicit, <= 2.5e-5 s)\n",
+              cpuName().c_str(), seconds);
+  const Trace reference = simulate({256, "explicit", 2.5e-5}, seconds);
+  const std::vector<int> resolutions = {16, 32, 64, 128};
+  std::vector<Setting> settings;
+  for (int n : resolutions) {
+    settings.push_back({n, "explicit", 2e-4});
+    for (double h : {4e-3, 2e-3, 1e-3, 5e-4}) {
+      settings.push_back({n, "backward_euler", h});
+      settings.push_back({n, "theta", h});
+    }
+  }
+  std::ofstream csv(out + "/convergence.csv");
+  csv << "particles,method,substep_config_s,substep_used_s,cost_s_per_s,rms_error,finite\n";
+  std::printf(
+      "| particles | method | substep used, s | cost, s/s | RMS error |\n|---|---|---|---|---|\n");
+  for (const Setting& s : settings) {
+    std::vector<double> costs;
+    Trace t;
+    for (int r = 0; r < runs; ++r) {
+      t = simulate(s, seconds);
+      costs.push_back(t.wall_s / seconds);
+    }
+    std::sort(costs.begin(), costs.end());
+    const double cost = costs[costs.size() / 2];
+    const double error = t.finite ? rmsError(t, reference) : NAN;
+    csv << s.particles << "," << s.method << "," << s.substep_s << "," << t.substep_used_s << ","
+        << cost << "," << error << "," << (t.finite ? 1 : 0) << "\n";
+    std::printf("| %d | %s | %.3g | %.3g | %.3g %% |\n", s.particles, s.method.c_str(),
+                t.substep_used_s, cost, 100.0 * error);
+    std::fflush(stdout);
+  }
+  csv.close();
+  plot(out, resolutions);
+  return 0;
+}

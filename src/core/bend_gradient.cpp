@@ -1,0 +1,116 @@
+#include "wet_curly_hair/core/bend_gradient.h"
+
+#include <cmath>
+
+#include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/smoothing.h"
+
+namespace wet_curly_hair {
+namespace {
+
+Mat3 skew(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// Gradients with respect to a and b of phi = tr(M^T R(a, b)), R the rodrigues rotation of
+/// minimalRotation: R = I + [v]x + [v]x^2 / (1 + c), v = a x b, c = a . b. For a direction db,
+/// dv = a x db and dc = a . db (da: dv = da x b, dc = b . da), and
+/// dR = [dv]x + ([dv]x [v]x + [v]x [dv]x) / (1 + c) - [v]x^2 dc / (1 + c)^2.
+void rotationGradient(const Vec3& a, const Vec3& b, const Mat3& m, Vec3* ga, Vec3* gb) {
+  const Vec3 v = a.cross(b);
+  const double s = 1.0 + a.dot(b);
+  const Mat3 vx = skew(v), vx2 = vx * vx;
+  auto dphi = [&](const Vec3& dv, double dc) {
+    const Mat3 dvx = skew(dv);
+    const Mat3 dr = dvx + (dvx * vx + vx * dvx) / s - vx2 * (dc / (s * s));
+    return m.cwiseProduct(dr).sum();
+  };
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 e = Vec3::Unit(k);
+    (*gb)[k] = dphi(a.cross(e), a[k]);
+    (*ga)[k] = dphi(e.cross(b), b[k]);
+  }
+}
+
+/// The frames of the n - 1 edges as the solver builds them (transportFrame from the root frame).
+void buildFrames(const Vec3* d, int edges, const Mat3& root_frame, Mat3* frames) {
+  frames[0] = root_frame;
+  M33<double> frame = toM33(root_frame);
+  V3<double> tangent = column(frame, 0);
+  for (int i = 1; i < edges; ++i) {
+    transportFrame(toV3(d[i - 1]), i, &frame, &tangent);
+    frames[i] = toEigen(frame);
+  }
+}
+
+}  // namespace
+
+double bendEnergyOfStrand(const Vec3* p, int n, double beta, const Mat3& root_frame,
+                          const Vec3* local_target, double k_b) {
+  if (n < 2) return 0.0;
+  Vec3List d(n - 1);
+  Mat3List frames(n - 1);
+  smoothDifferences(p, n, beta, d.data());
+  buildFrames(d.data(), n - 1, root_frame, frames.data());
+  double e = 0.0;
+  for (int i = 0; i + 1 < n; ++i)
+    e += 0.5 * k_b * (p[i + 1] - p[i] - frames[i] * local_target[i]).squaredNorm();
+  return e;
+}
+
+void addBendFrameGradientForce(const Vec3* p, int n, double beta, const Mat3& root_frame,
+                               const Vec3* local_target, double k_b, Mat3* frames, Vec3* d,
+                               Vec3* adjoint, Vec3* force) {
+  const int edges = n - 1;
+  if (edges < 2 || k_b == 0.0) return;
+  // 1. Forward: smoothed differences (eq. 2) and frames.
+  smoothDifferences(p, n, beta, d);
+  buildFrames(d, edges, root_frame, frames);
+  // 2. Backward through the frames: A_i = dE/dF_i (direct, -k r_i t_i^T, plus R_{i+1}^T A_{i+1}
+  // from the frames after it); dE/dR_i = A_i F_{i-1}^T goes to the tangents R_i turns between,
+  // F_{i-1}'s (= u_{i-1}, column 0 of F_{i-1}) and u_i = d_{i-1} / |d_{i-1}|.
+  for (int i = 0; i < edges; ++i) adjoint[i].setZero();
+  Mat3 a_next = Mat3::Zero(), r_next = Mat3::Identity();
+  for (int i = edges - 1; i >= 0; --i) {
+    const Vec3 r = p[i + 1] - p[i] - frames[i] * local_target[i];
+    const Mat3 a = -k_b * r * local_target[i].transpose() + r_next.transpose() * a_next;
+    if (i == 0) break;  // the root frame is the head's: nothing flows further
+    const double len = d[i - 1].norm();
+    if (len < kDirectionEpsilon) {  // transportFrame kept the frame: F_i = F_{i-1}
+      a_next = a, r_next = Mat3::Identity();
+      continue;
+    }
+    const Vec3 u = d[i - 1] / len;
+    const Vec3 before = frames[i - 1].col(0);
+    Vec3 g_before, g_u;
+    rotationGradient(before, u, a * frames[i - 1].transpose(), &g_before, &g_u);
+    adjoint[i - 1] += (g_u - u.dot(g_u) * u) / len;
+    // F_{i-1}'s tangent is u_{i-1} for i >= 2 (the root's tangent is the head's, constant).
+    if (i >= 2) {
+      const double len_before = d[i - 2].norm();
+      if (len_before >= kDirectionEpsilon) {
+        const Vec3 w = d[i - 2] / len_before;
+        adjoint[i - 2] += (g_before - w.dot(g_before) * w) / len_before;
+      }
+    }
+    a_next = a;
+    r_next = minimalRotation(before, u);
+  }
+  // 3. Backward through eq. (2): lambda_i = dE/dd_i + f1 lambda_{i+1} - f2 lambda_{i+2}; edge i
+  // gets f3 lambda_i, and edge 0 also the start d_{-1} = d_{-2} = e_0 (A2).
+  const double f1 = 2.0 * (1.0 - beta), f2 = (1.0 - beta) * (1.0 - beta), f3 = beta * beta;
+  Vec3 l1 = Vec3::Zero(), l2 = Vec3::Zero();  // lambda_{i+1}, lambda_{i+2}
+  for (int i = edges - 1; i >= 0; --i) {
+    const Vec3 lambda = adjoint[i] + f1 * l1 - f2 * l2;
+    Vec3 g_edge = f3 * lambda;
+    if (i == 0) g_edge += (f1 - f2) * lambda - f2 * l1;
+    force[i + 1] -= g_edge;
+    force[i] += g_edge;
+    l2 = l1;
+    l1 = lambda;
+  }
+}
+
+}  // namespace wet_curly_hair
