@@ -3,8 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
+#include <new>
 #include <random>
 #include <vector>
 
@@ -12,6 +15,38 @@
 #include "wet_curly_hair/core/metrics.h"
 
 using namespace wet_curly_hair;
+
+// Every global operator new counts itself, so that a test can tell whether the measurements
+// allocate once their scratch has grown (their buffers are std::vectors: operator new).
+extern "C" {
+void* __libc_malloc(size_t size);
+void* __libc_memalign(size_t alignment, size_t size);
+void __libc_free(void* p);
+}
+namespace {
+std::atomic<long> g_news{0};
+}  // namespace
+void* operator new(size_t size) {
+  g_news.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = __libc_malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](size_t size) { return operator new(size); }
+void* operator new(size_t size, std::align_val_t align) {
+  g_news.fetch_add(1, std::memory_order_relaxed);
+  const size_t a = static_cast<size_t>(align);
+  if (void* p = __libc_memalign(a, size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](size_t size, std::align_val_t align) { return operator new(size, align); }
+void operator delete(void* p) noexcept { __libc_free(p); }
+void operator delete[](void* p) noexcept { __libc_free(p); }
+void operator delete(void* p, size_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, size_t) noexcept { __libc_free(p); }
+void operator delete(void* p, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete(void* p, size_t, std::align_val_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, size_t, std::align_val_t) noexcept { __libc_free(p); }
 
 namespace {
 
@@ -283,4 +318,27 @@ TEST(Metrics, LengthStatsEqualEdgeStrainAndTheArcLengths) {
     EXPECT_EQ(l.max_extension, max_ext);
     EXPECT_EQ(l.mean_extension, ext_sum / g.model.strandCount());
   }
+}
+
+TEST(Metrics, NoAllocationOnceTheScratchHasGrown) {
+  RandomGroom g(30, 12, 0.008, 0.01, 21);
+  g.model.rest_edge_m.assign(g.points.size(), 0.008);
+  g.model.strand_length_m.assign(g.model.strandCount(), 0.008 * 11);
+  Pose pose;
+  MetricScratch scratch;
+  auto all = [&] {
+    tangleCount(g.model, g.points, 0.002, &scratch, 1, 1);
+    tangleCount(g.model, g.points, 0.002, &scratch, 1, 3);
+    clumpDistance(g.model, g.points, g.saturation, 0.03, &scratch, 1, 1);
+    clumpDistance(g.model, g.points, g.saturation, 0.03, &scratch, 1, 4);
+    lengthStats(g.model, g.points, &scratch, 1);
+    headPenetration(g.model, g.points, pose, 1);
+  };
+  const long before_warm_up = g_news.load();
+  all();  // grows the scratch
+  const long warm_up = g_news.load() - before_warm_up;
+  ASSERT_GT(warm_up, 0) << "the counter must see the scratch grow";
+  const long before = g_news.load();
+  for (int k = 0; k < 3; ++k) all();
+  EXPECT_EQ(g_news.load() - before, 0);
 }
