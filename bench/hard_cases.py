@@ -239,8 +239,10 @@ def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeo
     frame = max(FRAME_S, step_s)
     tag = "%s__%s__%s" % (scene, integrator, step_label.replace("/", "_"))
     json_path = os.path.join(out_dir, tag + ".json")
+    # --series-stride 1: the energy at every frame (the runner samples it by default); the
+    # energy check judges its peak.
     cmd = [run, "--scene", scene_path, "--integrator", integrator, "--substep", repr(step_s),
-           "--json", json_path] + extra
+           "--series-stride", "1", "--json", json_path] + extra
     if frame > FRAME_S:
         cmd += ["--set", "run.frame_s=%r" % frame]
     t0 = time.time()

@@ -143,6 +143,9 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   if (!scene.solver.validate("solver.", why)) return false;
   io::RunOptions options;
   options.measure = false;
+  // The tangle counts are never read here; the cohesion section compares exact clump distances.
+  options.tangles = false;
+  options.sample_strands = 0;
   options.stage_timing = stage_timing;  // clock reads cost: off for the cost figures
   result->frames.clear();
   result->sim_frames.clear();

@@ -81,6 +81,8 @@ std::string RunSummary::toJson() const {
       .add("rss_end_kb", static_cast<long long>(rss_end_kb))
       .add("rss_peak_kb", static_cast<long long>(rss_peak_kb))
       .add("series_stride", series_stride)
+      .add("sample_stride", sample_stride)
+      .add("sampled_strands", sampled_strands)
       .add("rtf_window_s", rtf_window_s)
       .add("realtime_factor_windows", realtime_factor_windows)
       .add("integrator", integrator)
@@ -98,7 +100,20 @@ std::string RunSummary::toJson() const {
     stages.addObject(stageName(static_cast<int>(k)), stage);
   }
   o.addObject("stages", stages);
+  o.add("measurements", measurements);
+  JsonObject spent;
+  for (size_t k = 0; k < measurements.size() && k < measurement_s.size(); ++k)
+    spent.add(measurements[k], measurement_s[k]);
+  o.addObject("measurement_s", spent);
+  o.add("measure_wall_s", measure_wall_s);
   return o.str();
+}
+
+const char* measurementName(Measurement m) {
+  static const char* const kNames[kMeasurementCount] = {
+      "rigid_motion", "energy",        "strain",         "head_penetration", "obstacles",
+      "jitter",       "tangle_series", "clump_distance", "tangles",          "curl_shape"};
+  return m >= 0 && m < kMeasurementCount ? kNames[m] : "";
 }
 
 namespace {
@@ -139,6 +154,14 @@ bool checkOptions(const RunOptions& options, const HairModel& model,
                   std::vector<RunOptions::SaturationEvent>* events, std::string* why) {
   if (options.series_stride < 1) {
     if (why) *why = "--series-stride: must be at least 1";
+    return false;
+  }
+  if (options.sample_strands < 0) {
+    if (why) *why = "--sample-strands: must be at least 0";
+    return false;
+  }
+  if (options.tangle_series && options.tangle_series_stride < 1) {
+    if (why) *why = "--tangle-series: must be at least 1";
     return false;
   }
   if (!(options.rtf_window_s > 0.0)) {
@@ -235,49 +258,56 @@ bool buildObstacleField(const SceneConfig& scene, const HairModel& model, long f
 
 /// What the motion can put in: the groom carried rigidly by the head (RunSummary's
 /// rigid_kinetic_energy_max_j, rigid_potential_rise_max_j, head_peak_reach_speed_m_s and
-/// hair_mass_kg).
+/// hair_mass_kg). From the groom's mass moments in the head frame (mass M, first moment mu,
+/// second moment S of the non-root particles), so each frame costs O(1) whatever the groom:
+/// carried from pose a to pose b, a particle at x moves by A x + d (A = R_b - R_a,
+/// d = t_b - t_a), and sum m |A x + d|^2 = tr(A S A^T) + 2 d . A mu + M |d|^2; the gravitational
+/// energy at a pose is -g . (R mu + M t).
 void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long frames,
                         RunSummary* s) {
   const HeadMotionConfig& motion = scene.motion;
   const double frame = scene.run.frame_s;
-  auto rigidPotential = [&](const Pose& pose) {
-    double u = 0.0;
-    for (int st = 0; st < model.strandCount(); ++st)
-      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-        u -= model.mass_kg[i] *
-             scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
-    return u;
+  const Vec3& g = scene.solver.gravity_m_s2;
+  double mass = 0.0, reach = 0.0;
+  Vec3 mu = Vec3::Zero();
+  Mat3 second = Mat3::Zero();
+  for (int st = 0; st < model.strandCount(); ++st) {
+    for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i) {
+      const Vec3& x = model.rest_position_head[i];
+      mass += model.mass_kg[i];
+      mu += model.mass_kg[i] * x;
+      second += model.mass_kg[i] * x * x.transpose();
+    }
+    // |R root| = |root|: a strand point carried rigidly is at most |root| + length from the
+    // head's origin.
+    reach = std::max(
+        reach, model.rest_position_head[model.strandBegin(st)].norm() + model.strand_length_m[st]);
+  }
+  s->hair_mass_kg = mass;
+  auto potential = [&](const Pose& pose) {
+    return -g.dot(pose.rotation * mu + mass * pose.translation);
   };
-  for (int st = 0; st < model.strandCount(); ++st)
-    for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-      s->hair_mass_kg += model.mass_kg[i];
-  const double u0 = rigidPotential(headPose(motion, 0.0));
+  const double u0 = potential(headPose(motion, 0.0));
   for (long f = 0; f < frames; ++f) {
     const Pose a = headPose(motion, f * frame), b = headPose(motion, (f + 1) * frame);
-    double ke = 0.0;
-    for (int st = 0; st < model.strandCount(); ++st)
-      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
-        ke +=
-            0.5 * model.mass_kg[i] *
-            ((b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame)
-                .squaredNorm();
-    s->rigid_kinetic_energy_max_j = std::max(s->rigid_kinetic_energy_max_j, ke);
+    const Mat3 A = b.rotation.toRotationMatrix() - a.rotation.toRotationMatrix();
+    const Vec3 d = b.translation - a.translation;
+    const double sum_m_v2 =
+        (A * second * A.transpose()).trace() + 2.0 * d.dot(A * mu) + mass * d.squaredNorm();
+    s->rigid_kinetic_energy_max_j =
+        std::max(s->rigid_kinetic_energy_max_j, 0.5 * sum_m_v2 / (frame * frame));
     // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
     const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
     const double w = std::abs(turn.angle()) / frame;
-    const double v_origin = (b.translation - a.translation).norm() / frame;
-    for (int st = 0; st < model.strandCount(); ++st) {
-      const double r =
-          (a.apply(model.rest_position_head[model.strandBegin(st)]) - a.translation).norm();
-      s->head_peak_reach_speed_m_s =
-          std::max(s->head_peak_reach_speed_m_s, v_origin + w * (r + model.strand_length_m[st]));
-    }
-    s->rigid_potential_rise_max_j = std::max(s->rigid_potential_rise_max_j, rigidPotential(b) - u0);
+    const double v_origin = d.norm() / frame;
+    s->head_peak_reach_speed_m_s = std::max(s->head_peak_reach_speed_m_s, v_origin + w * reach);
+    s->rigid_potential_rise_max_j = std::max(s->rigid_potential_rise_max_j, potential(b) - u0);
   }
 }
 
 /// The per-frame measurements (energy, strain, penetration, extension, jitter, tangles) and the
-/// final-frame ones, with the buffers they need allocated once.
+/// final-frame ones, with the buffers they need allocated once, each timed (wall seconds) under
+/// its name (RunSummary::measurements).
 class FrameMeasurements {
  public:
   FrameMeasurements(const SceneConfig& scene, const HairModel& model, const Obstacles& obstacles,
@@ -287,52 +317,58 @@ class FrameMeasurements {
         obstacles_(obstacles),
         options_(options),
         frames_(frames),
+        threads_(scene.solver.integrator.threads),
+        sample_stride_(options.sample_strands > 0 && model.strandCount() > options.sample_strands
+                           ? (model.strandCount() + options.sample_strands - 1) /
+                                 options.sample_strands
+                           : 1),
         out_prev2_(model.particleCount()),
         out_prev1_(model.particleCount()),
-        contact_time_(model.strandCount(), 0.0) {
-    metric_grid_.resize(model.particleCount(), model.strand_offsets);
+        contact_time_(model.strandCount(), 0.0),
+        jitter_strand_(model.strandCount(), 0.0) {}
+
+  /// Runs fn as measurement m, timed.
+  template <typename Fn>
+  void timed(Measurement m, Fn fn) {
+    const double t0 = steadySeconds();
+    fn();
+    spent_s_[m] += steadySeconds() - t0;
+    ran_[m] = true;
   }
 
   /// Frame f (0: the initial state) at time t, the head at pose.
   void record(long f, double t, const Pose& pose, HairState* state, RunSummary* s) {
-    if (f % options_.series_stride == 0 || f == frames_) {
-      const EnergyParts e = energy(model_, scene_.solver, pose, state);
-      s->time_s.push_back(t);
-      s->energy.push_back(e.total());
-      s->kinetic_energy.push_back(e.kinetic);
-      s->max_speed_m_s.push_back(maxSpeed(model_, *state));
-    }
     ++recorded_frames_;
-    const StrainStats strain = edgeStrain(model_, *state);
-    s->max_strain = std::max(s->max_strain, strain.max);
-    s->mean_strain += strain.mean;
-    const double head_pen = maxHeadPenetration(model_, *state, pose);
-    s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
-    double obstacle_pen = 0.0, extension = 0.0, ext_sum = 0.0;
-    measureStrands(f, *state, &obstacle_pen, &extension, &ext_sum);
-    s->max_obstacle_penetration_m = std::max(s->max_obstacle_penetration_m, obstacle_pen);
-    s->max_strand_extension = std::max(s->max_strand_extension, extension);
-    if (f >= 1) {
-      s->max_head_penetration_after_first_step_m =
-          std::max(s->max_head_penetration_after_first_step_m, head_pen);
-      s->max_obstacle_penetration_after_first_step_m =
-          std::max(s->max_obstacle_penetration_after_first_step_m, obstacle_pen);
+    if (f % options_.series_stride == 0 || f == frames_) {
+      timed(kMeasureEnergy, [&] {
+        const EnergyParts e = energy(model_, scene_.solver, pose, state);
+        s->time_s.push_back(t);
+        s->energy.push_back(e.total());
+        s->kinetic_energy.push_back(e.kinetic);
+        s->max_speed_m_s.push_back(maxSpeed(model_, *state));
+      });
     }
-    if (f == 0) {
-      s->max_strain_start = strain.max;
-      s->mean_strain_start = strain.mean;
-      s->max_strand_extension_start = extension;
-      s->mean_strand_extension_start = ext_sum / model_.strandCount();
-    }
-    s->max_strain_end = strain.max;
-    s->mean_strain_end = strain.mean;
-    s->max_strand_extension_end = extension;
-    s->mean_strand_extension_end = ext_sum / model_.strandCount();
-    measureJitter(f, *state, pose);
-    if (f % 10 == 0) {
-      s->max_tangles = std::max(
-          s->max_tangles,
-          tangleCount(model_, state->wet_position, scene_.run.strand_radius_m, &metric_grid_));
+    // Strain and extension are one pass over the edges (lengthStats), timed as "strain".
+    timed(kMeasureStrain, [&] {
+      const LengthStats lengths = lengthStats(model_, state->position, &scratch_, threads_);
+      recordStrain(f, lengths, s);
+      recordExtension(f, lengths, s);
+    });
+    timed(kMeasureHeadPenetration, [&] {
+      const double head_pen = headPenetration(model_, state->position, pose, threads_);
+      s->max_penetration_m = std::max(s->max_penetration_m, head_pen);
+      if (f >= 1)
+        s->max_head_penetration_after_first_step_m =
+            std::max(s->max_head_penetration_after_first_step_m, head_pen);
+    });
+    timed(kMeasureObstacles, [&] { measureObstacles(f, *state, s); });
+    timed(kMeasureJitter, [&] { measureJitter(f, *state, pose); });
+    if (options_.tangle_series && f % options_.tangle_series_stride == 0) {
+      timed(kMeasureTangleSeries, [&] {
+        s->max_tangles = std::max(
+            s->max_tangles, tangleCount(model_, state->wet_position, scene_.run.strand_radius_m,
+                                        &scratch_, threads_, sample_stride_));
+      });
     }
   }
 
@@ -343,58 +379,129 @@ class FrameMeasurements {
     s->max_penetration_after_first_step_m = std::max(
         s->max_head_penetration_after_first_step_m, s->max_obstacle_penetration_after_first_step_m);
     s->jitter_m = jitter_count_ ? std::sqrt(jitter_sum_ / jitter_count_) : 0.0;
-    s->clump_distance_m = clumpDistance(model_, state.wet_position, state.saturation,
-                                        scene_.run.clump_search_m, &metric_grid_);
-    s->tangles = tangleCount(model_, state.wet_position, scene_.run.strand_radius_m, &metric_grid_);
-    s->max_tangles = std::max(s->max_tangles, s->tangles);
-    s->tangles_sim = tangleCount(model_, state.position, scene_.run.strand_radius_m, &metric_grid_);
-    const CurlShape curl = tipCurlShape(model_, state.position);
-    s->curl_radius_tip_m = curl.radius_m;
-    s->curl_pitch_tip_m = curl.pitch_m;
+    if (options_.clump_distance)
+      timed(kMeasureClumpDistance, [&] {
+        s->clump_distance_m =
+            clumpDistance(model_, state.wet_position, state.saturation, scene_.run.clump_search_m,
+                          &scratch_, threads_, sample_stride_);
+      });
+    if (options_.tangles)
+      timed(kMeasureTangles, [&] {
+        const double r = scene_.run.strand_radius_m;
+        s->tangles =
+            tangleCount(model_, state.wet_position, r, &scratch_, threads_, sample_stride_);
+        // Without display cohesion the output positions are the simulated ones: count once.
+        s->tangles_sim =
+            state.wet_position == state.position
+                ? s->tangles
+                : tangleCount(model_, state.position, r, &scratch_, threads_, sample_stride_);
+      });
+    if (ran_[kMeasureTangles] || ran_[kMeasureTangleSeries])
+      s->max_tangles = std::max(s->max_tangles, s->tangles);
+    if (ran_[kMeasureTangles] || ran_[kMeasureTangleSeries] || ran_[kMeasureClumpDistance]) {
+      s->sample_stride = sample_stride_;
+      s->sampled_strands = (model_.strandCount() + sample_stride_ - 1) / sample_stride_;
+    }
+    timed(kMeasureCurlShape, [&] {
+      const CurlShape curl = tipCurlShape(model_, state.position);
+      s->curl_radius_tip_m = curl.radius_m;
+      s->curl_pitch_tip_m = curl.pitch_m;
+    });
     double contact_sum = 0.0;
     int touched = 0;
     for (double c : contact_time_)
       if (c > 0.0) contact_sum += c, ++touched;
     s->obstacle_contact_s = touched ? contact_sum / touched : 0.0;
     if (recorded_frames_ > 0) s->mean_strain /= static_cast<double>(recorded_frames_);
+    for (int m = 0; m < kMeasurementCount; ++m) {
+      if (!ran_[m]) continue;
+      s->measurements.push_back(measurementName(static_cast<Measurement>(m)));
+      s->measurement_s.push_back(spent_s_[m]);
+      s->measure_wall_s += spent_s_[m];
+    }
   }
 
  private:
-  /// Per strand: arc length over rest length (largest and summed extension), the deepest
-  /// obstacle penetration, and the time within the adhesion band of an obstacle.
-  void measureStrands(long f, const HairState& state, double* obstacle_pen, double* extension,
-                      double* ext_sum) {
-    *extension = -std::numeric_limits<double>::infinity();
-    for (int st = 0; st < model_.strandCount(); ++st) {
-      const int b = model_.strandBegin(st), n = model_.strandSize(st);
-      double arc = 0.0;
-      bool touching = false;
-      for (int i = b; i < b + n; ++i) {
-        if (i + 1 < b + n) arc += (state.position[i + 1] - state.position[i]).norm();
-        if (!obstacles_.empty() && i > b) {
-          Vec3 normal;
-          const double dist = obstacles_.distance(state.position[i], &normal);
-          touching = touching || dist <= scene_.solver.adhesion.radius_m;
-          *obstacle_pen = std::max(*obstacle_pen, -dist);
-        }
-      }
-      *extension = std::max(*extension, arc / model_.strand_length_m[st] - 1.0);
-      *ext_sum += arc / model_.strand_length_m[st] - 1.0;
-      if (touching && f > 0) contact_time_[st] += scene_.run.frame_s;
+  void recordStrain(long f, const LengthStats& l, RunSummary* s) {
+    s->max_strain = std::max(s->max_strain, l.max_strain);
+    s->mean_strain += l.mean_strain;
+    if (f == 0) {
+      s->max_strain_start = l.max_strain;
+      s->mean_strain_start = l.mean_strain;
     }
+    s->max_strain_end = l.max_strain;
+    s->mean_strain_end = l.mean_strain;
   }
 
-  /// Output positions in the head frame, three frames kept: RMS second difference.
-  void measureJitter(long f, const HairState& state, const Pose& pose) {
-    for (int i = 0; i < model_.particleCount(); ++i) {
-      const Vec3 x = pose.applyInverse(state.wet_position[i]);
-      if (f >= 2) {
-        jitter_sum_ += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
-        ++jitter_count_;
-      }
-      out_prev2_[i] = out_prev1_[i];
-      out_prev1_[i] = x;
+  void recordExtension(long f, const LengthStats& l, RunSummary* s) {
+    s->max_strand_extension = std::max(s->max_strand_extension, l.max_extension);
+    if (f == 0) {
+      s->max_strand_extension_start = l.max_extension;
+      s->mean_strand_extension_start = l.mean_extension;
     }
+    s->max_strand_extension_end = l.max_extension;
+    s->mean_strand_extension_end = l.mean_extension;
+  }
+
+  /// Per strand: the deepest obstacle penetration and the time within the adhesion band of an
+  /// obstacle.
+  /// Strands on the solver's threads (each writes its own contact time; the maximum is the same
+  /// in any order).
+  void measureObstacles(long f, const HairState& state, RunSummary* s) {
+    if (obstacles_.empty()) return;
+    auto strand = [&](int st) {
+      const int b = model_.strandBegin(st), n = model_.strandSize(st);
+      bool touching = false;
+      double worst = 0.0;
+      for (int i = b + 1; i < b + n; ++i) {
+        Vec3 normal;
+        const double dist = obstacles_.distance(state.position[i], &normal);
+        touching = touching || dist <= scene_.solver.adhesion.radius_m;
+        worst = std::max(worst, -dist);
+      }
+      if (touching && f > 0) contact_time_[st] += scene_.run.frame_s;
+      return worst;
+    };
+    double pen = 0.0;
+    const int strands = model_.strandCount();
+    if (threads_ <= 1) {
+      for (int st = 0; st < strands; ++st) pen = std::max(pen, strand(st));
+    } else {
+#pragma omp parallel for num_threads(threads_) schedule(static) reduction(max : pen)
+      for (int st = 0; st < strands; ++st) pen = std::max(pen, strand(st));
+    }
+    s->max_obstacle_penetration_m = std::max(s->max_obstacle_penetration_m, pen);
+    if (f >= 1)
+      s->max_obstacle_penetration_after_first_step_m =
+          std::max(s->max_obstacle_penetration_after_first_step_m, pen);
+  }
+
+  /// Output positions in the head frame, three frames kept: RMS second difference. Strands on
+  /// the solver's threads, each summing its own particles; the strand sums are added in strand
+  /// order, so any thread count gives the same value.
+  void measureJitter(long f, const HairState& state, const Pose& pose) {
+    const Mat3 to_head = pose.rotation.conjugate().toRotationMatrix();
+    auto strand = [&](int st) {
+      double sum = 0.0;
+      for (int i = model_.strandBegin(st); i < model_.strandBegin(st) + model_.strandSize(st);
+           ++i) {
+        const Vec3 x = to_head * (state.wet_position[i] - pose.translation);
+        if (f >= 2) sum += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
+        out_prev2_[i] = out_prev1_[i];
+        out_prev1_[i] = x;
+      }
+      jitter_strand_[st] = sum;
+    };
+    const int strands = model_.strandCount();
+    if (threads_ <= 1) {
+      for (int st = 0; st < strands; ++st) strand(st);
+    } else {
+#pragma omp parallel for num_threads(threads_) schedule(static)
+      for (int st = 0; st < strands; ++st) strand(st);
+    }
+    if (f < 2) return;
+    for (double v : jitter_strand_) jitter_sum_ += v;
+    jitter_count_ += model_.particleCount();
   }
 
   const SceneConfig& scene_;
@@ -402,12 +509,17 @@ class FrameMeasurements {
   const Obstacles& obstacles_;
   const RunOptions& options_;
   const long frames_;
+  const int threads_;
+  const int sample_stride_;
   Vec3List out_prev2_, out_prev1_;
   double jitter_sum_ = 0.0;
   long jitter_count_ = 0;
   std::vector<double> contact_time_;
-  NeighborGrid metric_grid_;
+  std::vector<double> jitter_strand_;  ///< this frame's sum per strand
+  MetricScratch scratch_;
   long recorded_frames_ = 0;
+  double spent_s_[kMeasurementCount] = {};
+  bool ran_[kMeasurementCount] = {};
 };
 
 /// The solver's counters of one step, added to the summary.
@@ -514,7 +626,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.particles = model.particleCount();
   s.substep_s = frame / substepCount(model, scene.solver, frame);
   FrameMeasurements measurements(scene, model, obstacles, options, frames);
-  measureRigidMotion(scene, model, frames, &s);
+  measurements.timed(kMeasureRigidMotion, [&] { measureRigidMotion(scene, model, frames, &s); });
 
   // Frame f is done: measured, handed to on_frame, written every hair_stride frames.
   auto frameDone = [&](long f, const Pose& pose) {

@@ -1,6 +1,7 @@
 // wet_curly_hair_run: the offline runner. Runs a scene (the built-in one when given none) for a
 // set simulated time under a scripted head motion and writes a JSON summary. Options and JSON
 // keys: docs/runner.md.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -23,7 +24,9 @@ const char* kUsage =
     "                          [--obstacle sphere:x=..,y=..,z=..,r=..]... (also box:, plane:)\n"
     "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
     "                          [--sdf-resolution M] [--integrator NAME] [--substep S]\n"
-    "                          [--threads N] [--no-stage-timing]\n"
+    "                          [--threads N] [--no-stage-timing] [--no-measure]\n"
+    "                          [--tangle-series N] [--no-tangles] [--no-clump-distance]\n"
+    "                          [--sample-strands N]\n"
     "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window "
     "S]\n"
     "integrators: explicit, backward_euler, midpoint, theta (--set solver.integrator.theta=T)\n"
@@ -151,6 +154,32 @@ Parsed parseRunFlag(Arguments* args, CommandLine* cl, std::string* why) {
   }
   if (a == "--no-stage-timing") {
     options.stage_timing = false;
+    return Parsed::kOk;
+  }
+  if (a == "--sample-strands") {
+    const bool ok = args->number(&x, why);
+    options.sample_strands = static_cast<int>(x);
+    if (ok && (x < 0 || x != std::floor(x) || x > 2e9)) {
+      *why = "--sample-strands: must be a whole number, 0 or more";
+      return Parsed::kBad;
+    }
+    return result(ok);
+  }
+  if (a == "--tangle-series") {
+    const bool ok = args->number(&x, why);
+    options.tangle_series = true;
+    options.tangle_series_stride = static_cast<int>(x);
+    if (ok && (x < 1 || x != std::floor(x) || x > 2e9)) {
+      *why = "--tangle-series: must be a whole number of frames, at least 1";
+      return Parsed::kBad;
+    }
+    return result(ok);
+  }
+  for (const auto& [flag, field] : {std::pair<const char*, bool*>{"--no-measure", &options.measure},
+                                    {"--no-clump-distance", &options.clump_distance},
+                                    {"--no-tangles", &options.tangles}}) {
+    if (a != flag) continue;
+    *field = false;
     return Parsed::kOk;
   }
   if (a == "--print-scene") {

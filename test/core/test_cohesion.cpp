@@ -316,8 +316,7 @@ TEST(Cohesion, BaselineForcesPullWetStrandsTogetherAndConserveMomentum) {
 TEST(Metrics, ClumpDistanceTanglesAndCurlShape) {
   Fixture f(0.004);
   std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
-  NeighborGrid grid;
-  grid.resize(f.model.particleCount(), f.model.strand_offsets);
+  MetricScratch grid;
   // Strands 0 and 1 are 4 mm apart; strand 2 is isolated and counts as the search radius.
   EXPECT_NEAR(clumpDistance(f.model, f.state.position, f.state.saturation, 0.02, &grid),
               (20 * 0.004 + 10 * 0.02) / 30.0, 1e-12);

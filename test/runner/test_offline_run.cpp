@@ -2,11 +2,16 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <string>
+#include <vector>
 
 #include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/hair_file.h"
@@ -34,7 +39,7 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   EXPECT_TRUE(s.finite);
   EXPECT_EQ(s.repairs, 0u);
   EXPECT_LE(s.max_strain, scene.solver.stretch.strain_limit + 1e-9);
-  EXPECT_EQ(s.energy.size(), 31u);
+  EXPECT_EQ(s.energy.size(), 6u);       // frames 0, 6, ..., 30: the energy is sampled by default
   EXPECT_EQ(s.hair_frames_written, 4);  // frames 0, 10, 20, 30
   HairFileData frame;
   ASSERT_TRUE(readHairFile(options.hair_frames_dir + "/frame_00030.hair", &frame, &why)) << why;
@@ -238,4 +243,221 @@ TEST(OfflineRun, ANonFiniteRunExitsOne) {
   EXPECT_FALSE(runStayedFinite(state));
   summary.finite = runStayedFinite(state);
   EXPECT_EQ(runExitCode(summary), 1);
+}
+
+TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 8;
+  scene.run.seconds = 0.25;
+  RunSummary s;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
+  const std::vector<std::string> defaults = {"rigid_motion",     "energy",    "strain",
+                                             "head_penetration", "obstacles", "jitter",
+                                             "clump_distance",   "tangles",   "curl_shape"};
+  EXPECT_EQ(s.measurements, defaults);
+  ASSERT_EQ(s.measurement_s.size(), defaults.size());
+  double sum = 0.0;
+  for (double t : s.measurement_s) {
+    EXPECT_GE(t, 0.0);
+    sum += t;
+  }
+  EXPECT_DOUBLE_EQ(s.measure_wall_s, sum);
+  EXPECT_EQ(s.sample_stride, 1);  // 8 strands: every strand, exact
+  EXPECT_EQ(s.sampled_strands, 8);
+  const std::string json = s.toJson();
+  EXPECT_NE(json.find("\"measurements\": [\"rigid_motion\", \"energy\""), std::string::npos)
+      << json;
+  EXPECT_NE(json.find("\"measurement_s\""), std::string::npos);
+  EXPECT_NE(json.find("\"measure_wall_s\""), std::string::npos);
+
+  // Everything optional off: what still runs is listed, nothing else.
+  RunOptions off;
+  off.measure = false;
+  off.clump_distance = false;
+  off.tangles = false;
+  ASSERT_TRUE(runScene(scene, off, &s, &why)) << why;
+  EXPECT_EQ(s.measurements, (std::vector<std::string>{"rigid_motion", "curl_shape"}));
+  EXPECT_TRUE(s.energy.empty());
+  EXPECT_EQ(s.sampled_strands, 0);
+
+  // The opt-in tangle series, and sampling: every 3rd strand of 40 when 14 are asked for. The
+  // runner's counts are those of the sampled measurement on the last frame's positions (thick
+  // strands, so that they touch).
+  RunOptions sampled;
+  sampled.tangle_series = true;
+  sampled.tangle_series_stride = 5;
+  sampled.sample_strands = 14;
+  HairState last;
+  sampled.on_frame = [&](int, const HairState& state) { last = state; };
+  scene.groom.strands = 40;
+  scene.run.strand_radius_m = 0.003;
+  ASSERT_TRUE(runScene(scene, sampled, &s, &why)) << why;
+  EXPECT_NE(std::find(s.measurements.begin(), s.measurements.end(), "tangle_series"),
+            s.measurements.end());
+  EXPECT_EQ(s.sample_stride, 3);
+  EXPECT_EQ(s.sampled_strands, 14);
+  HairModel model;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why)) << why;
+  MetricScratch scratch;
+  const double r = scene.run.strand_radius_m, search = scene.run.clump_search_m;
+  const int exact = tangleCount(model, last.wet_position, r, &scratch, 1, 1);
+  const int estimate = tangleCount(model, last.wet_position, r, &scratch, 1, 3);
+  ASSERT_GT(exact, 0);
+  ASSERT_NE(estimate, exact) << "the check below must tell the estimate from the exact count";
+  EXPECT_EQ(s.tangles, estimate);
+  EXPECT_EQ(s.tangles_sim, tangleCount(model, last.position, r, &scratch, 1, 3));
+  EXPECT_EQ(s.clump_distance_m,
+            clumpDistance(model, last.wet_position, last.saturation, search, &scratch, 1, 3));
+  EXPECT_NE(s.clump_distance_m,
+            clumpDistance(model, last.wet_position, last.saturation, search, &scratch, 1, 1));
+  EXPECT_GE(s.max_tangles, s.tangles);
+
+  sampled.sample_strands = -1;
+  EXPECT_FALSE(runScene(scene, sampled, &s, &why));
+  EXPECT_NE(why.find("--sample-strands"), std::string::npos) << why;
+}
+
+/// The rigid-motion figures of a run of `scene`, against the sum over its particles frame by
+/// frame.
+void expectRigidMotionOfParticles(const SceneConfig& scene) {
+  RunOptions options;
+  options.measure = false;
+  RunSummary s;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &s, &why)) << why;
+  // The sum over the particles, frame by frame.
+  HairModel model;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why)) << why;
+  const double frame = scene.run.frame_s;
+  const long frames = std::lround(scene.run.seconds / frame);
+  auto potential = [&](const Pose& pose) {
+    double u = 0.0;
+    for (int st = 0; st < model.strandCount(); ++st)
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i)
+        u -= model.mass_kg[i] *
+             scene.solver.gravity_m_s2.dot(pose.apply(model.rest_position_head[i]));
+    return u;
+  };
+  double ke_max = 0.0, rise_max = 0.0, reach_max = 0.0, mass = 0.0;
+  const double u0 = potential(headPose(scene.motion, 0.0));
+  for (long f = 0; f < frames; ++f) {
+    const Pose a = headPose(scene.motion, f * frame), b = headPose(scene.motion, (f + 1) * frame);
+    double ke = 0.0;
+    mass = 0.0;
+    for (int st = 0; st < model.strandCount(); ++st) {
+      const int begin = model.strandBegin(st);
+      for (int i = begin + 1; i < begin + model.strandSize(st); ++i) {
+        const Vec3 v =
+            (b.apply(model.rest_position_head[i]) - a.apply(model.rest_position_head[i])) / frame;
+        ke += 0.5 * model.mass_kg[i] * v.squaredNorm();
+        mass += model.mass_kg[i];
+      }
+      const double w = Eigen::AngleAxisd(b.rotation * a.rotation.conjugate()).angle() / frame;
+      const double r = (a.apply(model.rest_position_head[begin]) - a.translation).norm();
+      reach_max = std::max(reach_max, (b.translation - a.translation).norm() / frame +
+                                          std::abs(w) * (r + model.strand_length_m[st]));
+    }
+    ke_max = std::max(ke_max, ke);
+    rise_max = std::max(rise_max, potential(b) - u0);
+  }
+  ASSERT_GT(ke_max, 0.0);
+  ASSERT_GT(rise_max, 0.0);
+  EXPECT_NEAR(s.rigid_kinetic_energy_max_j, ke_max, 1e-9 * ke_max) << scene.motion.type;
+  EXPECT_NEAR(s.rigid_potential_rise_max_j, rise_max, 1e-9 * rise_max) << scene.motion.type;
+  EXPECT_NEAR(s.head_peak_reach_speed_m_s, reach_max, 1e-12 * reach_max) << scene.motion.type;
+  EXPECT_NEAR(s.hair_mass_kg, mass, 1e-12 * mass);
+}
+
+TEST(OfflineRun, RigidMotionFromMassMomentsEqualsTheSumOverParticles) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 10;
+  scene.run.seconds = 0.5;
+  scene.motion.type = "nod";  // a turn that lifts the hair
+  scene.motion.freq_hz = 1.5;
+  scene.motion.amplitude_rad = 0.4;
+  expectRigidMotionOfParticles(scene);
+  scene.motion.type = "linear";  // a climb
+  scene.motion.speed_m_s = 0.7;
+  scene.motion.axis = Vec3(1.0, 0.0, 1.0).normalized();
+  expectRigidMotionOfParticles(scene);
+}
+
+TEST(OfflineRun, JitterIsTheRmsSecondDifferenceForAnyThreadCount) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 12;
+  scene.run.seconds = 0.2;
+  // The second difference of the output positions in the head frame, from the frames.
+  std::vector<Vec3List> frames;
+  RunOptions options;
+  options.on_frame = [&](int f, const HairState& state) {
+    const Pose pose = headPose(scene.motion, f * scene.run.frame_s);
+    Vec3List x(state.wet_position.size());
+    for (size_t i = 0; i < x.size(); ++i) x[i] = pose.applyInverse(state.wet_position[i]);
+    frames.push_back(x);
+  };
+  RunSummary one, two;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &one, &why)) << why;
+  double sum = 0.0;
+  long count = 0;
+  for (size_t f = 2; f < frames.size(); ++f)
+    for (size_t i = 0; i < frames[f].size(); ++i, ++count)
+      sum += (frames[f][i] - 2.0 * frames[f - 1][i] + frames[f - 2][i]).squaredNorm();
+  ASSERT_GT(sum, 0.0);
+  EXPECT_NEAR(one.jitter_m, std::sqrt(sum / count), 1e-9 * one.jitter_m);
+  scene.solver.integrator.threads = 2;
+  options.on_frame = nullptr;
+  ASSERT_TRUE(runScene(scene, options, &two, &why)) << why;
+  EXPECT_EQ(two.jitter_m, one.jitter_m);
+}
+
+TEST(OfflineRun, ObstacleFiguresOnThreadsEqualThoseOfTheFrames) {
+  // Wet hair of a shaking head brushing a sphere at its side: strands touch for different
+  // times, some not at all.
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 24;
+  scene.run.seconds = 0.5;
+  scene.motion.type = "shake";
+  scene.motion.freq_hz = 2.0;
+  scene.motion.amplitude_rad = 0.5;
+  scene.saturation.root = scene.saturation.tip = 1.0;
+  scene.solver.integrator.threads = 2;
+  AnalyticObstacle sphere;
+  std::string why;
+  ASSERT_TRUE(AnalyticObstacle::parse("sphere:x=0,y=0.16,z=0.02,r=0.06", &sphere, &why)) << why;
+  scene.obstacles = {sphere};
+  HairModel model;
+  ASSERT_TRUE(buildSceneModel(scene, &model, &why)) << why;
+  Obstacles obstacles;
+  obstacles.analytic = scene.obstacles;
+  double worst = 0.0;
+  std::vector<double> contact(model.strandCount(), 0.0);
+  RunOptions options;
+  options.on_frame = [&](int f, const HairState& state) {
+    for (int st = 0; st < model.strandCount(); ++st) {
+      bool touching = false;
+      for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st);
+           ++i) {
+        Vec3 n;
+        const double d = obstacles.distance(state.position[i], &n);
+        touching = touching || d <= scene.solver.adhesion.radius_m;
+        worst = std::max(worst, -d);
+      }
+      if (touching && f > 0) contact[st] += scene.run.frame_s;
+    }
+  };
+  RunSummary s;
+  ASSERT_TRUE(runScene(scene, options, &s, &why)) << why;
+  double sum = 0.0;
+  int touched = 0;
+  for (double c : contact)
+    if (c > 0.0) sum += c, ++touched;
+  ASSERT_GT(touched, 0);
+  ASSERT_LT(touched, model.strandCount());
+  ASSERT_NE(*std::min_element(contact.begin(), contact.end()),
+            *std::max_element(contact.begin(), contact.end()));
+  ASSERT_GT(worst, 0.0);
+  EXPECT_EQ(s.max_obstacle_penetration_m, worst);
+  EXPECT_EQ(s.obstacle_contact_s, sum / touched);
 }

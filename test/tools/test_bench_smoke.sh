@@ -80,5 +80,13 @@ check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png 
 check "runner takes --integrator --substep --threads, reports the lane layout" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/p.json')); sys.exit(0 if d['integrator']=='theta' and d['lane_layout'] in ('float8','float16') and d['threads']==2 and abs(d['substep_s']-1/240)<1e-9 and d['stages']['integrate']['particles']>0 else 1)\""
 "$run" --integrator rk4 > /dev/null 2> "$out/err"
 check "unknown integrator refused by name" "grep -q 'solver.integrator.method' $out/err"
+# The measurements' cost (bench/bench_measurements.cpp) runs and prints the share of the stepping
+# and the runner's clump distance and tangles against the exact ones (60 strands: exact here).
+measure=$(tool_path bench_measurements "$build") || exit 1
+"$measure" --strands 60 --seconds 0.1 --runs 1 > "$out/measure.txt" 2>&1
+measure_rc=$?
+check "bench_measurements runs (got $measure_rc)" "[ $measure_rc -eq 0 ]"
+check "bench_measurements reports the share of the stepping and the exact figures" \
+  "grep -q '% of stepping (median)' $out/measure.txt && grep -q 'tangles .* against .* exact' $out/measure.txt"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -37,7 +37,14 @@ rc=$?
 check "a groom with bad strands runs and exits 0 (got $rc)" "[ $rc -eq 0 ]"
 check "the JSON counts simulated and skipped strands" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/mixed.json')); sys.exit(0 if d['strands']==3 and d['strands_skipped']==2 and d['particles']==18 else 1)\""
 check "one warning names the skipped strands" "[ \$(grep -c 'skipped 2 of 5 strands' $out/mixed.err) -eq 1 ] && grep -q 'strand 1 (2 points), strand 4 (non-finite point 2 in the file)' $out/mixed.err"
-for args in "--motion wobble" "--seconds abc" "--strands 0" "--set solver.nope=1" "--scene /no/such.yaml" "--bogus"; do
+# The measurement flags: what ran is listed; the opt-in tangle series and sampling.
+"$run" --seconds 0.1 --strands 6 --particles 8 --no-measure --no-tangles --no-clump-distance \
+  --json "$out/m.json" > /dev/null 2>&1
+check "--no-measure --no-tangles --no-clump-distance list only what still runs" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/m.json')); sys.exit(0 if d['measurements']==['rigid_motion','curl_shape'] and d['energy']==[] else 1)\""
+"$run" --seconds 0.1 --strands 6 --particles 8 --tangle-series 2 --sample-strands 3 \
+  --json "$out/t.json" > /dev/null 2>&1
+check "--tangle-series and --sample-strands run and say so" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/t.json')); sys.exit(0 if 'tangle_series' in d['measurements'] and d['sample_stride']==2 and d['sampled_strands']==3 and set(d['measurement_s'])==set(d['measurements']) else 1)\""
+for args in "--motion wobble" "--seconds abc" "--strands 0" "--set solver.nope=1" "--scene /no/such.yaml" "--bogus" "--tangle-series 0" "--sample-strands -1" "--series-stride 0"; do
   "$run" $args > /dev/null 2> "$out/err"
   rc=$?
   check "'$args' exits 2 (got $rc)" "[ $rc -eq 2 ]"

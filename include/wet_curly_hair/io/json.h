@@ -1,4 +1,5 @@
-// A minimal JSON object writer for run summaries (numbers, strings, booleans, number arrays).
+// A minimal JSON object writer for run summaries (numbers, strings, booleans, number and string
+// arrays).
 #pragma once
 
 #include <cmath>
@@ -25,6 +26,11 @@ class JsonObject {
   JsonObject& add(const std::string& key, const std::vector<double>& v) {
     std::string s = "[";
     for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + number(v[i]);
+    return raw(key, s + "]");
+  }
+  JsonObject& add(const std::string& key, const std::vector<std::string>& v) {
+    std::string s = "[";
+    for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + quote(v[i]);
     return raw(key, s + "]");
   }
   JsonObject& addObject(const std::string& key, const JsonObject& o) { return raw(key, o.str()); }

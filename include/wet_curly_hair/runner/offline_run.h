@@ -21,8 +21,23 @@ struct RunOptions {
   /// Called after every output frame (frame 0 is the initial state) with the state: benchmarks
   /// read the output positions here. Not timed.
   std::function<void(int frame, const HairState& state)> on_frame;
-  /// Skip the per-frame measurements (energy, strain, tangles, jitter...): only the step runs.
+  /// Skip the per-frame measurements (energy, strain, penetration, extension, obstacles,
+  /// jitter, tangle series): only the step runs. The end-of-run ones follow their own flags.
   bool measure = true;
+  /// The tangle count every tangle_series_stride frames (RunSummary::max_tangles); opt-in
+  /// (runner --tangle-series N): one count costs about as much as a frame of stepping.
+  bool tangle_series = false;
+  int tangle_series_stride = 10;
+  /// End of the run: clump distance (--no-clump-distance) and the two tangle counts
+  /// (--no-tangles).
+  bool clump_distance = true;
+  bool tangles = true;
+  /// The clump distance and the tangle counts (series included) measure every k-th strand,
+  /// k = ceil(strands / sample_strands): exact up to that many strands, estimates beyond
+  /// (clumpDistance, tangleCount; runner --sample-strands N). 0: every strand, exact at any
+  /// size (a tangle count then costs about as much as several frames of stepping at 10,000
+  /// strands on one scalp, and grows with the square of the strand count).
+  int sample_strands = 500;
   /// Frames that are written hold the output positions (p^w under "ours" cohesion).
   /// Scripted saturation changes: each sets a root-to-tip ramp on every particle of every strand
   /// (applySaturation) before the first frame that starts at or after time_s (runner
@@ -33,12 +48,30 @@ struct RunOptions {
     double tip = 0.0;
   };
   std::vector<SaturationEvent> saturation_events;
-  /// The per-frame series (time_s, energy, kinetic_energy, max_speed_m_s) keep every Nth frame
-  /// (frame 0 and the last frame always); the maxima are still taken at every frame.
-  int series_stride = 1;
+  /// The per-frame series (time_s, energy, kinetic_energy, max_speed_m_s) are measured every
+  /// Nth frame (frame 0 and the last frame always); the other maxima are still taken at every
+  /// frame. The energy costs about a tenth of a frame's stepping with the implicit methods, so
+  /// the default samples it (every 0.1 s at 60 frames/s); 1 measures every frame.
+  int series_stride = 6;
   /// Real-time factor per window of this much simulated time (realtime_factor_windows), s.
   double rtf_window_s = 60.0;
 };
+
+/// The runner's measurements, by the names RunSummary::measurements lists (docs/runner.md).
+enum Measurement {
+  kMeasureRigidMotion,      ///< before the run: rigid_*, head_peak_reach_speed, hair_mass
+  kMeasureEnergy,           ///< energy, kinetic_energy, max_speed_m_s, time_s (series)
+  kMeasureStrain,           ///< max_strain, mean_strain, max_strand_extension, their _start/_end
+  kMeasureHeadPenetration,  ///< max_penetration_m, max_head_penetration_after_first_step_m
+  kMeasureObstacles,        ///< obstacle penetration and obstacle_contact_s
+  kMeasureJitter,           ///< jitter
+  kMeasureTangleSeries,     ///< max_tangles over the sampled frames (opt-in)
+  kMeasureClumpDistance,    ///< clump_distance_m (last frame)
+  kMeasureTangles,          ///< tangles, tangles_sim (last frame)
+  kMeasureCurlShape,        ///< curl_radius_tip_m, curl_pitch_tip_m (last frame)
+  kMeasurementCount
+};
+const char* measurementName(Measurement m);
 
 struct RunSummary {
   int strands = 0;          ///< strands simulated.
@@ -72,7 +105,7 @@ struct RunSummary {
       0.0;                ///< final frame: mean distance of a wet particle to another strand.
   double jitter_m = 0.0;  ///< RMS second difference per frame of output positions, head frame.
   int tangles = 0;        ///< final frame: touching segment pairs of different strands.
-  int max_tangles = 0;    ///< the most at any sampled frame (every 10th).
+  int max_tangles = 0;    ///< the most at any sampled frame (tangle_series) and the last.
   int tangles_sim = 0;    ///< final frame, on the simulated positions (not p^w).
   double curl_radius_tip_m = 0.0;  ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
@@ -109,7 +142,10 @@ struct RunSummary {
   /// Memory (/proc/self/status, kB): resident set before the model is built and at the end,
   /// and the peak (VmHWM) at the end.
   long rss_start_kb = 0, rss_end_kb = 0, rss_peak_kb = 0;
-  int series_stride = 1;
+  int series_stride = 6;
+  /// Strands the clump distance and tangle counts ran on: every sample_stride-th strand
+  /// (RunOptions::sample_strands); sample_stride 1 is exact, above 1 they are estimates.
+  int sample_stride = 1, sampled_strands = 0;
   double rtf_window_s = 60.0;
   /// Simulated / wall time of step() per window of rtf_window_s simulated seconds (the last,
   /// partial window included when it holds at least one frame).
@@ -122,6 +158,11 @@ struct RunSummary {
   /// seconds (all threads).
   std::vector<uint64_t> stage_particles;
   std::vector<double> stage_cpu_s;
+  /// The measurements that ran (measurementName, in Measurement order), the wall seconds each
+  /// took over the run, and their sum (compare with wall_s, the stepping).
+  std::vector<std::string> measurements;
+  std::vector<double> measurement_s;
+  double measure_wall_s = 0.0;
   std::string toJson() const;
 };
 
