@@ -8,30 +8,23 @@
 namespace wet_curly_hair {
 namespace {
 
-Mat3 skew(const Vec3& v) {
-  Mat3 m;
-  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return m;
-}
-
 /// Gradients with respect to a and b of phi = tr(M^T R(a, b)), R the rodrigues rotation of
-/// minimalRotation: R = I + [v]x + [v]x^2 / (1 + c), v = a x b, c = a . b. For a direction db,
-/// dv = a x db and dc = a . db (da: dv = da x b, dc = b . da), and
-/// dR = [dv]x + ([dv]x [v]x + [v]x [dv]x) / (1 + c) - [v]x^2 dc / (1 + c)^2.
+/// minimalRotation: R = I + [v]x + [v]x^2 / (1 + c), v = a x b, c = a . b. With
+/// tr(M^T [v]x) = v . mu (mu the axial vector of M - M^T) and [v]x^2 = v v^T - |v|^2 I,
+///   phi = tr M + v . mu + (v^T M v - |v|^2 tr M) / (1 + c),
+/// so dphi/dv = q = mu + ((M + M^T) v - 2 tr M v) / (1 + c), dphi/dc = -(v^T M v - |v|^2 tr M) /
+/// (1 + c)^2, and through v = a x b, c = a . b: dphi/db = q x a + (dphi/dc) a, dphi/da =
+/// b x q + (dphi/dc) b.
 void rotationGradient(const Vec3& a, const Vec3& b, const Mat3& m, Vec3* ga, Vec3* gb) {
   const Vec3 v = a.cross(b);
   const double s = 1.0 + a.dot(b);
-  const Mat3 vx = skew(v), vx2 = vx * vx;
-  auto dphi = [&](const Vec3& dv, double dc) {
-    const Mat3 dvx = skew(dv);
-    const Mat3 dr = dvx + (dvx * vx + vx * dvx) / s - vx2 * (dc / (s * s));
-    return m.cwiseProduct(dr).sum();
-  };
-  for (int k = 0; k < 3; ++k) {
-    const Vec3 e = Vec3::Unit(k);
-    (*gb)[k] = dphi(a.cross(e), a[k]);
-    (*ga)[k] = dphi(e.cross(b), b[k]);
-  }
+  const double trace = m.trace();
+  const Vec3 mu(m(2, 1) - m(1, 2), m(0, 2) - m(2, 0), m(1, 0) - m(0, 1));
+  const Vec3 mv = m * v, mtv = m.transpose() * v;
+  const Vec3 q = mu + (mv + mtv - 2.0 * trace * v) / s;
+  const double dc = -(v.dot(mv) - v.squaredNorm() * trace) / (s * s);
+  *gb = q.cross(a) + dc * a;
+  *ga = b.cross(q) + dc * b;
 }
 
 /// The frames of the n - 1 edges as the solver builds them (transportFrame from the root frame).

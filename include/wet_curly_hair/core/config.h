@@ -46,8 +46,9 @@ struct BendConfig {
   /// Add the force's derivative through the frames (bend_gradient.h), so that the bending force
   /// is the gradient of its energy, sum 1/2 k_b |e_i - F_i t_i^loc|^2: the same rest targets and
   /// rest shape, no energy from the frames' motion (docs/physics.md §2.6 "Energy"). Off: Iben's
-  /// force with the frames held (eq. 4 as written). Off by default until the bench has measured
-  /// it on every scene.
+  /// force with the frames held (eq. 4 as written). Off by default: 4-6 times the step's cost, and
+  /// the hair settles at the energy's minimum, which sags more than the built-in scene's look was
+  /// tuned for (docs/physics.md §2.6).
   bool frame_gradient = false;
   bool validate(const std::string& prefix, std::string* why) const;
 };
