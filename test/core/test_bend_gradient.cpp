@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <string>
 
 #include "wet_curly_hair/core/bend_gradient.h"
 #include "wet_curly_hair/core/frames.h"
