@@ -26,6 +26,7 @@ std::string RunSummary::toJson() const {
   JsonObject o;
   o.add("strands", strands)
       .add("strands_skipped", strands_skipped)
+      .add("bend_stabilized_strands", bend_stabilized_strands)
       .add("particles", particles)
       .add("steps", static_cast<unsigned long long>(steps))
       .add("substep_s", substep_s)
@@ -623,6 +624,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     return false;
   s.strands = model.strandCount();
   s.strands_skipped = static_cast<int>(import_report.skipped.size());
+  s.bend_stabilized_strands = model.bend_stabilized_strands;
   s.particles = model.particleCount();
   s.substep_s = frame / substepCount(model, scene.solver, frame);
   FrameMeasurements measurements(scene, model, obstacles, options, frames);

@@ -51,6 +51,24 @@ TEST(OfflineRun, SummaryOfAShortNod) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
 }
 
+TEST(OfflineRun, ReportsStrandsTooCoarseForTheBendingSmoothingAndTheSubstepItUsed) {
+  // 16 particles on 25 cm: 17 mm edges, and alpha_b = 48 mm is under 4 of them on every strand;
+  // 32 particles: 8 mm edges, none. The explicit substep follows the edge.
+  for (int particles : {16, 32, 64}) {
+    SceneConfig scene = builtinScene();
+    scene.groom.strands = 6;
+    scene.groom.particles = particles;
+    scene.run.seconds = 0.1;
+    RunSummary s;
+    std::string why;
+    ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
+    EXPECT_EQ(s.bend_stabilized_strands, particles == 16 ? 6 : 0) << particles;
+    // At 64 the bound is half of 2.3e-4 s at 32: about 1.2e-4 s, under the configured 2e-4 s.
+    if (particles == 64) EXPECT_LT(s.substep_s, 0.75 * scene.solver.integrator.substep_s);
+    EXPECT_TRUE(s.finite);
+  }
+}
+
 TEST(OfflineRun, BadSceneIsRefused) {
   SceneConfig scene = builtinScene();
   scene.groom.particles = 1;

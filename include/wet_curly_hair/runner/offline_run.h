@@ -76,6 +76,9 @@ const char* measurementName(Measurement m);
 struct RunSummary {
   int strands = 0;          ///< strands simulated.
   int strands_skipped = 0;  ///< strands of the groom file not simulated (HairImportReport).
+  /// Strands too coarse for the configured alpha_b or c_b, raised to the flutter bounds
+  /// (HairModel::bend_stabilized_strands).
+  int bend_stabilized_strands = 0;
   int particles = 0;
   uint64_t steps = 0;
   double substep_s = 0.0;
