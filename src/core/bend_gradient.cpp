@@ -27,17 +27,6 @@ void rotationGradient(const Vec3& a, const Vec3& b, const Mat3& m, Vec3* ga, Vec
   *ga = b.cross(q) + dc * b;
 }
 
-/// The frames of the n - 1 edges as the solver builds them (transportFrame from the root frame).
-void buildFrames(const Vec3* d, int edges, const Mat3& root_frame, Mat3* frames) {
-  frames[0] = root_frame;
-  M33<double> frame = toM33(root_frame);
-  V3<double> tangent = column(frame, 0);
-  for (int i = 1; i < edges; ++i) {
-    transportFrame(toV3(d[i - 1]), i, &frame, &tangent);
-    frames[i] = toEigen(frame);
-  }
-}
-
 }  // namespace
 
 double bendEnergyOfStrand(const Vec3* p, int n, double beta, const Mat3& root_frame,
@@ -46,7 +35,7 @@ double bendEnergyOfStrand(const Vec3* p, int n, double beta, const Mat3& root_fr
   Vec3List d(n - 1);
   Mat3List frames(n - 1);
   smoothDifferences(p, n, beta, d.data());
-  buildFrames(d.data(), n - 1, root_frame, frames.data());
+  transportFrames(root_frame, d.data(), n - 1, frames.data());
   double e = 0.0;
   for (int i = 0; i + 1 < n; ++i)
     e += 0.5 * k_b * (p[i + 1] - p[i] - frames[i] * local_target[i]).squaredNorm();
@@ -60,7 +49,7 @@ void addBendFrameGradientForce(const Vec3* p, int n, double beta, const Mat3& ro
   if (edges < 2 || k_b == 0.0) return;
   // 1. Forward: smoothed differences (eq. 2) and frames.
   smoothDifferences(p, n, beta, d);
-  buildFrames(d, edges, root_frame, frames);
+  transportFrames(root_frame, d, edges, frames);
   // 2. Backward through the frames: A_i = dE/dF_i (direct, -k r_i t_i^T, plus R_{i+1}^T A_{i+1}
   // from the frames after it); dE/dR_i = A_i F_{i-1}^T goes to the tangents R_i turns between,
   // F_{i-1}'s (= u_{i-1}, column 0 of F_{i-1}) and u_i = d_{i-1} / |d_{i-1}|.

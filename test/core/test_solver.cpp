@@ -267,6 +267,18 @@ TEST(Solver, BuildModelRaisesBendingToTheFlutterBoundsAndCountsIt) {
       << why;
   EXPECT_EQ(m.bend_stabilized_strands, 0);
   EXPECT_NEAR(m.bend_c[0], c.bend.damping_n_s / m.mean_edge_m[0], 1e-12);
+  // With little bend damping (a tenth of the default) it is raised to exactly half of critical,
+  // at any resolution where it falls below it, and counted even where alpha_b is long enough.
+  c.bend.damping_n_s *= 0.1;
+  ASSERT_TRUE(buildModel(generateGroom(gc, EllipsoidShape()), gc.linear_density_kg_per_m,
+                         HeadShape(), c, &m, &why))
+      << why;
+  EXPECT_EQ(m.bend_stabilized_strands, 3);
+  for (int s = 0; s < 3; ++s) {
+    const double critical =
+        2.0 * std::sqrt(m.bend_k[s] * gc.linear_density_kg_per_m * m.mean_edge_m[s]);
+    EXPECT_NEAR(m.bend_c[s], kMinBendDampingRatio * critical, 1e-12 * critical);
+  }
 }
 
 TEST(Solver, EnergyDoesNotGrowWithoutDriving) {

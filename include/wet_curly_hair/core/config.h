@@ -10,10 +10,9 @@
 
 namespace wet_curly_hair {
 
-/// Reference edge length of the default parameters: the built-in groom's 25 cm strands at 32
-/// particles. The per-length defaults below are the per-edge constants the project was tuned
-/// with at that resolution, converted by the scalings of docs/physics.md §2.11.
-constexpr double kDefaultEdgeM = 0.25 / 31.0;
+// The per-length defaults below are the per-edge constants the project was tuned with at the
+// built-in groom's edges (25 cm strands at 32 particles: 8.06 mm), converted by the scalings of
+// docs/physics.md §2.11.
 
 /// Stretch spring, eq. (1), with Selle-style strain limiting (docs/physics.md §2.2, §3). Per
 /// length (docs/physics.md §2.11): edge i gets k_s = EA / L_i and c_s = C_s / L_i, so a strand
