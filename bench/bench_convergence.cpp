@@ -1,13 +1,18 @@
-// Speed against error in space and time (docs/convergence.md): a hanging curly strand under the
-// built-in scene's nod, simulated at 16 ... 128 particles with every integrator and a range of
-// substeps, against a reference fine in both (256 particles, the explicit method at its
-// resolution-following substep, at most 2.5e-5 s). The error is over the whole run: at every
-// sampled frame, the distance between the strand and the reference at 17 material points (equal
-// fractions of the arc length from the root; the grooms are sampled at equal chords, so particle
-// i of n sits at i / (n - 1) of the length), RMS over points and frames, over the strand length.
-// The cost is the wall time of step() per simulated second, median of `--runs` runs (default 3).
-// Writes convergence.csv and, with gnuplot, convergence.png (error against cost, one curve per
-// resolution) into --out (default .).
+// Speed against error in space and time (docs/convergence.md), under the built-in scene's nod:
+//  - a hanging curly strand (no head), at 16 ... 128 particles with every integrator and a range
+//    of substeps, against a reference fine in both (256 particles, the explicit method at its
+//    resolution-following substep, at most 2.5e-5 s);
+//  - the 40-strand groom on the head (collision on), the same resolutions with the explicit
+//    method, midpoint (the default) and theta 0.6, against 256 particles with midpoint at
+//    1.25e-4 s (the explicit method at 256 particles strain-limits the root edges against the
+//    collision offset on every substep and settles elsewhere: docs/convergence.md).
+// The error is over the whole run: at every sampled frame, the distance between each strand and
+// the reference at 17 material points (equal fractions of the arc length from the root; the grooms
+// are sampled at equal chords, so particle i of n sits at i / (n - 1) of the length), RMS over
+// strands, points and frames, over the strand length. The cost is the wall time of step() per
+// simulated second, median of `--runs` runs (default 3). Writes convergence.csv and
+// convergence_groom.csv and, with gnuplot, convergence.png and convergence_groom.png (error
+// against cost, one curve per resolution) into --out (default .).
 // usage: bench_convergence [--out DIR] [--seconds T] [--runs N]
 #include <algorithm>
 #include <chrono>
@@ -41,7 +46,7 @@ struct Setting {
 struct Trace {
   std::vector<std::vector<Vec3>> samples;  // per sampled frame, the material points
   double wall_s = 0.0;
-  double length_m = 0.0;
+  double length_m = 0.0;  ///< mean strand length
   double substep_used_s = 0.0;
   bool finite = true;
 };
@@ -53,13 +58,14 @@ Vec3 materialPoint(const HairState& s, int begin, int n, double fraction) {
   return (1.0 - u) * s.position[begin + i] + u * s.position[begin + i + 1];
 }
 
-Trace simulate(const Setting& setting, double seconds) {
+/// One strand hanging free (strands == 1: root pointing down, no head) or a groom on the head.
+Trace simulate(const Setting& setting, int strands, double seconds) {
   GroomConfig g;
-  g.strands = 1;
+  g.strands = strands;
   g.particles = setting.particles;
-  g.scalp_axis = Vec3(0, 0, -1);
+  if (strands == 1) g.scalp_axis = Vec3(0, 0, -1);
   SolverConfig c;
-  c.collision.head_enabled = false;
+  c.collision.head_enabled = strands > 1;
   c.cohesion.mode = "off";
   c.integrator.method = setting.method;
   c.integrator.substep_s = setting.substep_s;
@@ -71,7 +77,7 @@ Trace simulate(const Setting& setting, double seconds) {
     std::fprintf(stderr, "bench_convergence: %s\n", why.c_str());
     std::exit(2);
   }
-  t.length_m = m.strand_length_m[0];
+  for (double l : m.strand_length_m) t.length_m += l / m.strandCount();  // the mean
   t.substep_used_s = effectiveSubstep(m, c);
   HeadMotionConfig motion;
   motion.type = "nod";  // the built-in scene's: 0.5 Hz, 0.3 rad
@@ -85,10 +91,12 @@ Trace simulate(const Setting& setting, double seconds) {
     t.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if ((f + 1) % kSampleEvery != 0) continue;
     std::vector<Vec3> points;
-    for (int k = 0; k < kMaterialPoints; ++k) {
-      points.push_back(materialPoint(s, 0, m.strandSize(0), double(k) / (kMaterialPoints - 1)));
-      t.finite = t.finite && points.back().allFinite();
-    }
+    for (int strand = 0; strand < m.strandCount(); ++strand)
+      for (int k = 0; k < kMaterialPoints; ++k) {
+        points.push_back(materialPoint(s, m.strandBegin(strand), m.strandSize(strand),
+                                       double(k) / (kMaterialPoints - 1)));
+        t.finite = t.finite && points.back().allFinite();
+      }
     t.samples.push_back(points);
   }
   return t;
@@ -98,7 +106,7 @@ double rmsError(const Trace& a, const Trace& reference) {
   double sum = 0.0;
   size_t count = 0;
   for (size_t f = 0; f < a.samples.size(); ++f)
-    for (int k = 0; k < kMaterialPoints; ++k, ++count)
+    for (size_t k = 0; k < a.samples[f].size(); ++k, ++count)
       sum += (a.samples[f][k] - reference.samples[f][k]).squaredNorm();
   return std::sqrt(sum / std::max<size_t>(count, 1)) / reference.length_m;
 }
@@ -115,27 +123,56 @@ std::string cpuName() {
          (flags.find(" avx512f") != std::string::npos ? " (AVX-512)" : " (AVX2, no AVX-512)");
 }
 
-void plot(const std::string& dir, const std::vector<int>& resolutions) {
+/// Error against cost from DIR/NAME.csv into DIR/NAME.png, one curve per resolution.
+void plot(const std::string& dir, const std::string& name, const std::string& title,
+          const std::vector<int>& resolutions) {
   if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) {
-    std::printf("gnuplot not found: no convergence.png\n");
+    std::printf("gnuplot not found: no %s.png\n", name.c_str());
     return;
   }
-  std::string script = "set terminal pngcairo size 900,600\nset output '" + dir +
-                       "/convergence.png'\nset datafile separator ','\nset logscale xy\n"
-                       "set xlabel 'cost, wall s per simulated s (one strand)'\n"
+  std::string script = "set terminal pngcairo size 900,600\nset output '" + dir + "/" + name +
+                       ".png'\nset datafile separator ','\nset logscale xy\n"
+                       "set xlabel 'cost, wall s per simulated s'\n"
                        "set ylabel 'RMS error over the run / strand length'\n"
-                       "set title 'Hanging curly strand under a nod: space and time error'\n"
-                       "set key outside right\nplot ";
+                       "set title '" +
+                       title + "'\nset key outside right\nplot ";
   for (size_t k = 0; k < resolutions.size(); ++k) {
     const std::string n = std::to_string(resolutions[k]);
-    script += std::string(k ? ", " : "") + "'" + dir + "/convergence.csv' using ($1==" + n +
+    script += std::string(k ? ", " : "") + "'" + dir + "/" + name + ".csv' using ($1==" + n +
               " ? $5 : 1/0):6 with points pt 7 title '" + n + " particles'";
   }
   script += "\n";
-  const std::string path = dir + "/convergence.gp";
+  const std::string path = dir + "/" + name + ".gp";
   std::ofstream(path) << script;
   if (std::system(("gnuplot '" + path + "'").c_str()) != 0)
     std::printf("gnuplot failed on %s\n", path.c_str());
+}
+
+/// Runs every setting against the reference and writes DIR/NAME.csv and a table on stdout.
+void runCase(const std::string& dir, const std::string& name, int strands,
+             const Setting& reference_setting, const std::vector<Setting>& settings, double seconds,
+             int runs) {
+  const Trace reference = simulate(reference_setting, strands, seconds);
+  std::ofstream csv(dir + "/" + name + ".csv");
+  csv << "particles,method,substep_config_s,substep_used_s,cost_s_per_s,rms_error,finite\n";
+  std::printf(
+      "| particles | method | substep used, s | cost, s/s | RMS error |\n|---|---|---|---|---|\n");
+  for (const Setting& s : settings) {
+    std::vector<double> costs;
+    Trace t;
+    for (int r = 0; r < runs; ++r) {
+      t = simulate(s, strands, seconds);
+      costs.push_back(t.wall_s / seconds);
+    }
+    std::sort(costs.begin(), costs.end());
+    const double cost = costs[costs.size() / 2];
+    const double error = t.finite ? rmsError(t, reference) : NAN;
+    csv << s.particles << "," << s.method << "," << s.substep_s << "," << t.substep_used_s << ","
+        << cost << "," << error << "," << (t.finite ? 1 : 0) << "\n";
+    std::printf("| %d | %s | %.3g | %.3g | %.3g %% |\n", s.particles, s.method.c_str(),
+                t.substep_used_s, cost, 100.0 * error);
+    std::fflush(stdout);
+  }
 }
 
 }  // namespace
@@ -161,39 +198,28 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: bench_convergence [--out DIR] [--seconds T] [--runs N]\n");
     return 2;
   }
-  std::printf("%s; %g s of the nod, error against 256 particles (explicit, <= 2.5e-5 s)\n",
-              cpuName().c_str(), seconds);
-  const Trace reference = simulate({256, "explicit", 2.5e-5}, seconds);
+  std::printf("%s; %g s of the nod\n", cpuName().c_str(), seconds);
   const std::vector<int> resolutions = {16, 32, 64, 128};
-  std::vector<Setting> settings;
+  std::vector<Setting> strand_settings, groom_settings;
   for (int n : resolutions) {
-    settings.push_back({n, "explicit", 2e-4});
+    strand_settings.push_back({n, "explicit", 2e-4});
+    groom_settings.push_back({n, "explicit", 2e-4});
     for (double h : {4e-3, 2e-3, 1e-3, 5e-4}) {
-      settings.push_back({n, "backward_euler", h});
-      settings.push_back({n, "theta", h});
+      strand_settings.push_back({n, "backward_euler", h});
+      strand_settings.push_back({n, "theta", h});
+      strand_settings.push_back({n, "midpoint", h});
+    }
+    for (double h : {2e-3, 1e-3, 5e-4}) {
+      groom_settings.push_back({n, "theta", h});
+      groom_settings.push_back({n, "midpoint", h});
     }
   }
-  std::ofstream csv(out + "/convergence.csv");
-  csv << "particles,method,substep_config_s,substep_used_s,cost_s_per_s,rms_error,finite\n";
-  std::printf(
-      "| particles | method | substep used, s | cost, s/s | RMS error |\n|---|---|---|---|---|\n");
-  for (const Setting& s : settings) {
-    std::vector<double> costs;
-    Trace t;
-    for (int r = 0; r < runs; ++r) {
-      t = simulate(s, seconds);
-      costs.push_back(t.wall_s / seconds);
-    }
-    std::sort(costs.begin(), costs.end());
-    const double cost = costs[costs.size() / 2];
-    const double error = t.finite ? rmsError(t, reference) : NAN;
-    csv << s.particles << "," << s.method << "," << s.substep_s << "," << t.substep_used_s << ","
-        << cost << "," << error << "," << (t.finite ? 1 : 0) << "\n";
-    std::printf("| %d | %s | %.3g | %.3g | %.3g %% |\n", s.particles, s.method.c_str(),
-                t.substep_used_s, cost, 100.0 * error);
-    std::fflush(stdout);
-  }
-  csv.close();
-  plot(out, resolutions);
+  std::printf("\nOne hanging strand, against 256 particles (explicit, <= 2.5e-5 s)\n");
+  runCase(out, "convergence", 1, {256, "explicit", 2.5e-5}, strand_settings, seconds, runs);
+  plot(out, "convergence", "Hanging curly strand under a nod: space and time error", resolutions);
+  std::printf("\n40 strands on the head, against 256 particles (midpoint, 1.25e-4 s)\n");
+  runCase(out, "convergence_groom", 40, {256, "midpoint", 1.25e-4}, groom_settings, seconds, runs);
+  plot(out, "convergence_groom", "40-strand groom on the head under a nod: space and time error",
+       resolutions);
   return 0;
 }

@@ -10,7 +10,10 @@ cost per particle-substep against the strand count, its spread (largest / smalle
 counts), the gain of a second thread, and the real-time factors at 1,000 and 10,000 strands,
 measured at the scaling substep and derived for the cheapest setting that met 1 % on every
 scene (cost per particle-substep x particles / substep; said so in the table). From gating.csv:
-dry against wet and an out-of-reach obstacle against none. Python 3 standard library only.
+dry against wet and an out-of-reach obstacle against none. Writes DIR/defaults.txt: the
+integrator and substep the package's defaults must be (the cheapest mean cost among the settings
+that met 1 % on every scene; test_config holds SolverConfig's defaults to it). Python 3 standard
+library only.
 """
 import csv
 import os
@@ -239,6 +242,22 @@ def gating(out, g):
                                                    fmt(float(r["ratio_to_no_obstacle"]))))
 
 
+def write_defaults(d, common):
+    """The chosen setting: among the integrators with a substep meeting 1 % on every scene, the
+    one of lowest mean cost there."""
+    if not common:
+        return
+    method, (substep, worst, cost) = min(common.items(), key=lambda kv: kv[1][2])
+    with open(os.path.join(d, "defaults.txt"), "w") as f:
+        f.write("# Written by bench/bench_summary.py from work_precision.csv: the cheapest setting\n"
+                "# (mean wall s per simulated s over the scenes) meeting 1 %% RMS of the strand\n"
+                "# length over the whole run on every benchmark scene (worst there %.2g %%,\n"
+                "# mean cost %s s/s). test_config holds SolverConfig's defaults to it.\n"
+                % (100 * worst, fmt(cost)))
+        f.write("solver.integrator.method %s\n" % method)
+        f.write("solver.integrator.substep_s %s\n" % fmt(substep))
+
+
 def main():
     d = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "docs", "bench")
@@ -247,6 +266,7 @@ def main():
     common = {}
     if os.path.exists(os.path.join(d, "work_precision.csv")):
         common = work_precision(out, rows(os.path.join(d, "work_precision.csv")))
+        write_defaults(d, common)
     if os.path.exists(os.path.join(d, "scaling.csv")):
         scaling(out, rows(os.path.join(d, "scaling.csv")), common)
     if os.path.exists(os.path.join(d, "target.csv")):

@@ -53,9 +53,12 @@ TEST(OfflineRun, SummaryOfAShortNod) {
 
 TEST(OfflineRun, ReportsStrandsTooCoarseForTheBendingSmoothingAndTheSubstepItUsed) {
   // 16 particles on 25 cm: 17 mm edges, and alpha_b = 48 mm is under 4 of them on every strand;
-  // 32 particles: 8 mm edges, none. The explicit substep follows the edge.
+  // 32 particles: 8 mm edges, none. The explicit substep follows the edge; the implicit default
+  // runs its configured substep at every resolution.
   for (int particles : {16, 32, 64}) {
     SceneConfig scene = builtinScene();
+    scene.solver.integrator.method = "explicit";
+    scene.solver.integrator.substep_s = 2e-4;
     scene.groom.strands = 6;
     scene.groom.particles = particles;
     scene.run.seconds = 0.1;
@@ -67,6 +70,15 @@ TEST(OfflineRun, ReportsStrandsTooCoarseForTheBendingSmoothingAndTheSubstepItUse
     if (particles == 64) EXPECT_LT(s.substep_s, 0.75 * scene.solver.integrator.substep_s);
     EXPECT_TRUE(s.finite);
   }
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 6;
+  scene.groom.particles = 64;
+  scene.run.seconds = 0.1;
+  RunSummary s;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
+  EXPECT_LE(s.substep_s, scene.solver.integrator.substep_s);
+  EXPECT_GT(s.substep_s, 0.9 * scene.solver.integrator.substep_s);  // a frame in equal parts
 }
 
 TEST(OfflineRun, BadSceneIsRefused) {

@@ -86,9 +86,13 @@ struct CollisionConfig {
 /// every damping term inside the solve, frames held at the start of the substep), a theta method:
 /// "backward_euler" (theta 1: stable, damps), "midpoint" (theta 1/2: second order, no numerical
 /// damping), "theta" (theta from `theta`).
+/// Default midpoint at 5e-4 s: the cheapest setting of the speed-against-error chart that meets
+/// 1 % RMS of the strand length over the whole run on every benchmark scene (docs/bench/
+/// defaults.txt, written by the bench; test_config holds these values to it). The explicit
+/// method needs 1e-4 s for the same budget and costs 2-5 times more.
 struct IntegratorConfig {
-  std::string method = "explicit";
-  double substep_s = 2.0e-4;  ///< largest substep, s; a frame is split into equal substeps.
+  std::string method = "midpoint";
+  double substep_s = 5.0e-4;  ///< largest substep, s; a frame is split into equal substeps.
   double theta = 0.6;         ///< for method "theta": 1/2 midpoint ... 1 backward Euler.
   /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
   /// couple only between steps, and every reduction is over integers or maxima in a fixed order.

@@ -1,0 +1,42 @@
+// The solver's defaults are what the last benchmark run chose (docs/bench/defaults.txt, written by
+// bench/bench_summary.py from the speed-against-error chart): names and values, not timings.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "wet_curly_hair/core/config.h"
+
+namespace wet_curly_hair {
+namespace {
+
+/// "key value" lines of the bench's choice; '#' lines are comments.
+std::map<std::string, std::string> benchChoice() {
+  std::ifstream in(std::string(WCH_SOURCE_DIR) + "/docs/bench/defaults.txt");
+  EXPECT_TRUE(in.good()) << "docs/bench/defaults.txt: run scripts/bench";
+  std::map<std::string, std::string> choice;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string key, value;
+    fields >> key >> value;
+    choice[key] = value;
+  }
+  return choice;
+}
+
+}  // namespace
+
+TEST(Config, IntegratorDefaultsAreTheBenchmarksChoice) {
+  const std::map<std::string, std::string> choice = benchChoice();
+  ASSERT_EQ(choice.count("solver.integrator.method"), 1u);
+  ASSERT_EQ(choice.count("solver.integrator.substep_s"), 1u);
+  const IntegratorConfig defaults;
+  EXPECT_EQ(defaults.method, choice.at("solver.integrator.method"));
+  EXPECT_DOUBLE_EQ(defaults.substep_s, std::stod(choice.at("solver.integrator.substep_s")));
+}
+
+}  // namespace wet_curly_hair
