@@ -242,12 +242,33 @@ def gating(out, g):
                                                    fmt(float(r["ratio_to_no_obstacle"]))))
 
 
+def cohesion_choice(d):
+    """From cohesion.csv: the cheapest evaluation (summed cost over the strand counts) whose clump
+    distance is within 1 % of exact's at every count; None without the file."""
+    path = os.path.join(d, "cohesion.csv")
+    if not os.path.exists(path):
+        return None
+    rs = rows(path)
+    exact = {r["strands"]: float(r["clump_distance_m"]) for r in rs if r["evaluation"] == "exact"}
+    best = None
+    for ev in sorted({r["evaluation"] for r in rs}):
+        pts = [r for r in rs if r["evaluation"] == ev]
+        if all(r["strands"] in exact and
+               abs(float(r["clump_distance_m"]) - exact[r["strands"]]) <= 0.01 * exact[r["strands"]]
+               for r in pts):
+            cost = sum(float(r["us_per_wet_particle_frame"]) for r in pts)
+            if best is None or cost < best[1]:
+                best = (ev, cost)
+    return best[0] if best else None
+
+
 def write_defaults(d, common):
     """The chosen setting: among the integrators with a substep meeting 1 % on every scene, the
-    one of lowest mean cost there."""
+    one of lowest mean cost there; the cohesion evaluation from cohesion_choice."""
     if not common:
         return
     method, (substep, worst, cost) = min(common.items(), key=lambda kv: kv[1][2])
+    evaluation = cohesion_choice(d)
     with open(os.path.join(d, "defaults.txt"), "w") as f:
         f.write("# Written by bench/bench_summary.py from work_precision.csv: the cheapest setting\n"
                 "# (mean wall s per simulated s over the scenes) meeting 1 %% RMS of the strand\n"
@@ -256,6 +277,10 @@ def write_defaults(d, common):
                 % (100 * worst, fmt(cost)))
         f.write("solver.integrator.method %s\n" % method)
         f.write("solver.integrator.substep_s %s\n" % fmt(substep))
+        if evaluation:
+            f.write("# From cohesion.csv: the cheapest evaluation whose clump distance is within\n"
+                    "# 1 % of exact's at every strand count measured.\n")
+            f.write("solver.cohesion.evaluation %s\n" % evaluation)
 
 
 def main():

@@ -38,6 +38,7 @@ struct Fixture {
 TEST(Cohesion, DryHairIsUntouched) {
   Fixture f(0.005);
   CohesionConfig c;
+  c.evaluation = "exact";  // eq. (10) summed over every neighbour: the analytic answers
   EXPECT_EQ(computeDisplayCohesion(f.model, c, &f.state), 0);
   for (int i = 0; i < f.model.particleCount(); ++i)
     EXPECT_EQ(f.state.wet_position[i], f.state.position[i]);
@@ -47,6 +48,7 @@ TEST(Cohesion, WetNeighboursClumpIsolatedParticlesStay) {
   Fixture f(0.005);
   std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
   CohesionConfig c;
+  c.evaluation = "exact";  // eq. (10) summed over every neighbour: the analytic answers
   c.include_self = false;  // the literal neighbour set of A13: exact pull of lambda * gap
   EXPECT_GT(computeDisplayCohesion(f.model, c, &f.state), 0);
   for (int i = 0; i < 10; ++i) {
@@ -67,6 +69,7 @@ TEST(Cohesion, SelfWeightMakesThePullGrowSmoothlyWithDistance) {
     Fixture f(gap);
     std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
     CohesionConfig c;
+    c.evaluation = "exact";  // eq. (10) summed over every neighbour: the analytic answers
     c.radius_m = 0.02;
     computeDisplayCohesion(f.model, c, &f.state);
     const double pull = f.state.wet_position[5].x() / (0.85 * gap);
@@ -88,6 +91,7 @@ TEST(Cohesion, IsTranslationInvariant) {
     for (int i = 0; i < f->model.particleCount(); ++i)
       f->state.saturation[i] = 0.3 + 0.05 * (i % 7);
   CohesionConfig c;
+  c.evaluation = "exact";  // eq. (10) summed over every neighbour: the analytic answers
   computeDisplayCohesion(a.model, c, &a.state);
   computeDisplayCohesion(b.model, c, &b.state);
   for (int i = 0; i < a.model.particleCount(); ++i)

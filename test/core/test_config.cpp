@@ -39,4 +39,10 @@ TEST(Config, IntegratorDefaultsAreTheBenchmarksChoice) {
   EXPECT_DOUBLE_EQ(defaults.substep_s, std::stod(choice.at("solver.integrator.substep_s")));
 }
 
+TEST(Config, CohesionEvaluationDefaultIsTheBenchmarksChoice) {
+  const std::map<std::string, std::string> choice = benchChoice();
+  ASSERT_EQ(choice.count("solver.cohesion.evaluation"), 1u);
+  EXPECT_EQ(CohesionConfig().evaluation, choice.at("solver.cohesion.evaluation"));
+}
+
 }  // namespace wet_curly_hair
