@@ -1,7 +1,9 @@
 #include "wet_curly_hair/core/config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <thread>
 
 namespace wet_curly_hair {
 namespace config_check {
@@ -100,6 +102,12 @@ bool CollisionConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "friction", friction, 0.0, 10.0, why);
 }
 
+int IntegratorConfig::resolvedThreads() const {
+  if (threads > 0) return std::min(threads, kMaxSolverThreads);
+  const int machine = static_cast<int>(std::thread::hardware_concurrency());
+  return std::max(1, std::min(machine, kMaxSolverThreads));
+}
+
 bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
   if (!oneOf(p + "method", method, {"explicit", "backward_euler", "midpoint", "theta"}, why) ||
       !finiteInRange(p + "substep_s", substep_s, 1e-7, 0.1, why) ||
@@ -109,10 +117,10 @@ bool IntegratorConfig::validate(const std::string& p, std::string* why) const {
       !oneOf(p + "lane_layout", lane_layout, {"auto", "double4", "double8", "float8", "float16"},
              why))
     return false;
-  if (threads < 1 || threads > kMaxSolverThreads) {
+  if (threads < 0 || threads > kMaxSolverThreads) {
     if (why)
-      *why = p + "threads: " + std::to_string(threads) + " is outside [1, " +
-             std::to_string(kMaxSolverThreads) + "]";
+      *why = p + "threads: " + std::to_string(threads) + " is outside [0, " +
+             std::to_string(kMaxSolverThreads) + "] (0: every hardware thread)";
     return false;
   }
   if (damping_passes < 1 || damping_passes > 64) {

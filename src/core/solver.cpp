@@ -385,8 +385,8 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   const double h = dt_s / nsub;
   const SolverPlan plan = detail::planStep(model, config, h);
   const StepInputs in = carryHairThroughHeadJump(model, config, inputs, dt_s, state, &local);
-  const int threads =
-      std::max(1, std::min(config.integrator.threads, static_cast<int>(state->scratch.size())));
+  const int threads = std::max(
+      1, std::min(config.integrator.resolvedThreads(), static_cast<int>(state->scratch.size())));
   // Per-thread counters, summed in thread order afterwards (integers and maxima: the sums do not
   // depend on which thread ran which strand). On the stack: a step allocates nothing.
   StepStats per_thread[kMaxSolverThreads];

@@ -192,8 +192,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
       "arithmetic and strands per SIMD block: auto (float, one register), double4, double8, "
       "float8 or float16",
       false);
-  i("solver.integrator.threads", &c.integrator.threads, "solver threads (results identical)",
-    false);
+  i("solver.integrator.threads", &c.integrator.threads,
+    "solver threads, 0: every hardware thread (results identical)", false);
   d("solver.integrator.teleport_speed_m_s", &c.integrator.teleport_speed_m_s,
     "head faster than this within a step: a jump that carries the hair rigidly, m/s (0: off)",
     false);

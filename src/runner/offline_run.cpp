@@ -213,7 +213,7 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   s.lane_layout = scene.solver.integrator.strand_lanes
                       ? std::string(scene.solver.integrator.resolvedLaneLayout())
                       : std::string("off");
-  s.threads = scene.solver.integrator.threads;
+  s.threads = scene.solver.integrator.resolvedThreads();
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);
   return s;
@@ -318,7 +318,7 @@ class FrameMeasurements {
         obstacles_(obstacles),
         options_(options),
         frames_(frames),
-        threads_(scene.solver.integrator.threads),
+        threads_(scene.solver.integrator.resolvedThreads()),
         sample_stride_(options.sample_strands > 0 && model.strandCount() > options.sample_strands
                            ? (model.strandCount() + options.sample_strands - 1) /
                                  options.sample_strands

@@ -2,10 +2,12 @@
 // bench/bench_summary.py from the speed-against-error chart): names and values, not timings.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "wet_curly_hair/core/config.h"
 
@@ -43,6 +45,22 @@ TEST(Config, CohesionEvaluationDefaultIsTheBenchmarksChoice) {
   const std::map<std::string, std::string> choice = benchChoice();
   ASSERT_EQ(choice.count("solver.cohesion.evaluation"), 1u);
   EXPECT_EQ(CohesionConfig().evaluation, choice.at("solver.cohesion.evaluation"));
+}
+
+TEST(Config, ThreadsDefaultToEveryHardwareThread) {
+  IntegratorConfig c;
+  EXPECT_EQ(c.threads, 0);
+  const int machine = static_cast<int>(std::thread::hardware_concurrency());
+  EXPECT_EQ(c.resolvedThreads(), std::max(1, std::min(machine, kMaxSolverThreads)));
+  c.threads = 3;
+  EXPECT_EQ(c.resolvedThreads(), 3);
+  std::string why;
+  EXPECT_TRUE(c.validate("solver.integrator.", &why)) << why;
+  for (int bad : {-1, kMaxSolverThreads + 1}) {
+    c.threads = bad;
+    EXPECT_FALSE(c.validate("solver.integrator.", &why));
+    EXPECT_NE(why.find("solver.integrator.threads"), std::string::npos) << why;
+  }
 }
 
 }  // namespace wet_curly_hair

@@ -96,7 +96,11 @@ struct IntegratorConfig {
   double theta = 0.6;         ///< for method "theta": 1/2 midpoint ... 1 backward Euler.
   /// Threads that advance strands in parallel (OpenMP). Results do not depend on it: strands
   /// couple only between steps, and every reduction is over integers or maxima in a fixed order.
-  int threads = 1;
+  /// 0 (the default): every hardware thread of the machine, at most kMaxSolverThreads
+  /// (resolvedThreads).
+  int threads = 0;
+  /// threads with 0 resolved to the machine's hardware threads (at least 1).
+  int resolvedThreads() const;
   /// Advance strands in blocks, one per SIMD lane (a structure of arrays per block of strands;
   /// the same operations as one strand at a time), every integrator. false: one strand at a
   /// time, the reference path.
