@@ -85,11 +85,39 @@ struct CohesionNodeGrid {
   void resize(size_t nodes, int particles);
 };
 
+/// Every kilogram of water the water stage (water.h) saw, totals since the state was made:
+/// added = held + dripped + evaporated + removed, to round-off.
+struct WaterLedger {
+  double added_kg = 0.0;    ///< from sources, and by commands that raised a saturation.
+  double removed_kg = 0.0;  ///< by commands that lowered a saturation.
+  double dripped_kg = 0.0;
+  double evaporated_kg = 0.0;
+  uint64_t drips = 0;  ///< particle-steps that dripped.
+};
+
+/// Scratch of the water stage, sized once by makeState (the exchange's contact pairs grow to
+/// the most ever found and keep their storage).
+struct WaterScratch {
+  std::vector<double> strand;  ///< 4 per particle of the longest strand: capacities, solve.
+  std::vector<double> edge_m, downhill;               ///< per edge of the longest strand.
+  std::vector<double> delta;                          ///< per particle: exchange.
+  std::vector<uint32_t> contacts;                     ///< per particle: contact count (exchange).
+  std::vector<uint32_t> cell_start, sorted, cell_of;  ///< hash grid of the exchange.
+  std::vector<uint32_t> pairs;                        ///< contact pairs, two indices each.
+  Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
+  void resize(int particles, int max_strand_size);
+};
+
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
   Vec3List position;               ///< world frame, m.
   Vec3List velocity;               ///< world frame, m/s.
   std::vector<double> saturation;  ///< per particle, [0, 1].
+  /// Per particle, water held, kg: the saturation's source when the water stage runs (water.h);
+  /// unused (zero) otherwise.
+  std::vector<double> water_kg;
+  WaterLedger water_ledger;
+  WaterScratch water_scratch;
   /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
   /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
   Vec3List wet_position;

@@ -1,0 +1,428 @@
+#include "wet_curly_hair/core/water.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+
+#include "wet_curly_hair/core/config.h"
+
+namespace wet_curly_hair {
+
+using namespace config_check;
+
+bool WaterConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "capacity_kg_per_m", capacity_kg_per_m, 1e-9, 10.0, why) &&
+         finiteInRange(p + "wicking_m2_s", wicking_m2_s, 0.0, 1.0, why) &&
+         finiteInRange(p + "gravity_flow_m_s", gravity_flow_m_s, 0.0, 10.0, why) &&
+         finiteInRange(p + "evaporation_per_s", evaporation_per_s, 0.0, 1e3, why) &&
+         finiteInRange(p + "exchange_per_s", exchange_per_s, 0.0, 1e3, why) &&
+         finiteInRange(p + "exchange_radius_m", exchange_radius_m, 1e-5, 0.1, why);
+}
+
+namespace {
+
+bool timeWindow(const std::string& p, double start, double stop, std::string* why) {
+  if (!finiteInRange(p + "start_s", start, 0.0, 1e9, why)) return false;
+  if (std::isnan(stop) || stop <= start) {
+    if (why) *why = p + "stop_s: " + std::to_string(stop) + " must be after start_s";
+    return false;
+  }
+  return true;
+}
+
+/// Shortest text that reads back as exactly the same double.
+std::string shortest(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return std::string(buffer, result.ptr);
+}
+
+/// "kind:k=v,k=v" into the kind and a map; names the bad field as "<kind>.<key>".
+bool parseSpec(const std::string& spec, const std::vector<std::string>& kinds,
+               const std::vector<std::string>& keys, std::string* kind,
+               std::map<std::string, double>* values, std::string* why) {
+  const size_t colon = spec.find(':');
+  *kind = spec.substr(0, colon);
+  if (std::find(kinds.begin(), kinds.end(), *kind) == kinds.end()) {
+    std::string list;
+    for (const std::string& k : kinds) list += (list.empty() ? "" : " or ") + k;
+    if (why) *why = "'" + *kind + "' is not " + list;
+    return false;
+  }
+  if (colon == std::string::npos) return true;
+  std::stringstream items(spec.substr(colon + 1));
+  std::string item;
+  while (std::getline(items, item, ',')) {
+    const size_t eq = item.find('=');
+    const std::string key = item.substr(0, eq);
+    if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
+      if (why) *why = *kind + "." + key + ": unknown key";
+      return false;
+    }
+    const std::string text = eq == std::string::npos ? "" : item.substr(eq + 1);
+    char* end = nullptr;
+    const double value = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0' || !std::isfinite(value)) {
+      if (why) *why = *kind + "." + key + ": '" + text + "' is not a finite number";
+      return false;
+    }
+    (*values)[key] = value;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool WaterSource::validate(const std::string& p, std::string* why) const {
+  if (kind == Kind::kShower) {
+    if (!finiteVec(p + "center_m", center_m, why) || !positive(p + "r", radius_m, why) ||
+        !finiteInRange(p + "rate_kg_s", rate_kg_s, 0.0, 1e3, why))
+      return false;
+  } else if (!finiteInRange(p + "z", level_m, -1e6, 1e6, why)) {
+    return false;
+  }
+  return timeWindow(p, start_s, stop_s, why);
+}
+
+bool WaterSource::parse(const std::string& spec, WaterSource* out, std::string* why) {
+  std::string kind;
+  std::map<std::string, double> v;
+  if (!parseSpec(spec, {"shower", "bath"}, {"x", "y", "z", "r", "rate_kg_s", "start_s", "stop_s"},
+                 &kind, &v, why))
+    return false;
+  WaterSource s;
+  s.kind = kind == "shower" ? Kind::kShower : Kind::kBath;
+  if (s.kind == Kind::kBath) {
+    for (const char* k : {"x", "y", "r", "rate_kg_s"}) {
+      if (v.count(k)) {
+        if (why) *why = "bath." + std::string(k) + ": a bath takes only z, start_s, stop_s";
+        return false;
+      }
+    }
+    if (!v.count("z")) {
+      if (why) *why = "bath.z: the water level is required";
+      return false;
+    }
+  }
+  auto get = [&](const char* k, double fallback) { return v.count(k) ? v[k] : fallback; };
+  s.center_m = Vec3(get("x", 0.0), get("y", 0.0), get("z", 0.0));
+  s.level_m = get("z", 0.0);
+  s.radius_m = get("r", s.radius_m);
+  s.rate_kg_s = get("rate_kg_s", s.rate_kg_s);
+  s.start_s = get("start_s", 0.0);
+  s.stop_s = get("stop_s", s.stop_s);
+  if (!s.validate(kind + ".", why)) return false;
+  *out = s;
+  return true;
+}
+
+std::string WaterSource::spec() const {
+  std::string s;
+  if (kind == Kind::kShower) {
+    s = "shower:x=" + shortest(center_m.x()) + ",y=" + shortest(center_m.y()) +
+        ",z=" + shortest(center_m.z()) + ",r=" + shortest(radius_m) +
+        ",rate_kg_s=" + shortest(rate_kg_s);
+  } else {
+    s = "bath:z=" + shortest(level_m);
+  }
+  s += ",start_s=" + shortest(start_s);
+  if (std::isfinite(stop_s)) s += ",stop_s=" + shortest(stop_s);
+  return s;
+}
+
+bool WaterDryer::validate(const std::string& p, std::string* why) const {
+  return finiteVec(p + "center_m", center_m, why) && positive(p + "hx", half_extents_m.x(), why) &&
+         positive(p + "hy", half_extents_m.y(), why) &&
+         positive(p + "hz", half_extents_m.z(), why) &&
+         finiteInRange(p + "rate_per_s", rate_per_s, 0.0, 1e3, why) &&
+         timeWindow(p, start_s, stop_s, why);
+}
+
+bool WaterDryer::parse(const std::string& spec, WaterDryer* out, std::string* why) {
+  std::string kind;
+  std::map<std::string, double> v;
+  if (!parseSpec(spec, {"box"},
+                 {"x", "y", "z", "hx", "hy", "hz", "rate_per_s", "start_s", "stop_s"}, &kind, &v,
+                 why))
+    return false;
+  WaterDryer d;
+  auto get = [&](const char* k, double fallback) { return v.count(k) ? v[k] : fallback; };
+  d.center_m = Vec3(get("x", 0.0), get("y", 0.0), get("z", 0.0));
+  d.half_extents_m = Vec3(get("hx", 0.1), get("hy", 0.1), get("hz", 0.1));
+  d.rate_per_s = get("rate_per_s", d.rate_per_s);
+  d.start_s = get("start_s", 0.0);
+  d.stop_s = get("stop_s", d.stop_s);
+  if (!d.validate("box.", why)) return false;
+  *out = d;
+  return true;
+}
+
+std::string WaterDryer::spec() const {
+  std::string s = "box:x=" + shortest(center_m.x()) + ",y=" + shortest(center_m.y()) +
+                  ",z=" + shortest(center_m.z()) + ",hx=" + shortest(half_extents_m.x()) +
+                  ",hy=" + shortest(half_extents_m.y()) + ",hz=" + shortest(half_extents_m.z()) +
+                  ",rate_per_s=" + shortest(rate_per_s) + ",start_s=" + shortest(start_s);
+  if (std::isfinite(stop_s)) s += ",stop_s=" + shortest(stop_s);
+  return s;
+}
+
+void transportStrand(int n, const double* capacity, const double* edge_m, const double* downhill,
+                     double capacity_per_m, double wicking_m2_s, double flow_m_s, double dt,
+                     double* held, double* scratch) {
+  if (n < 2) return;
+  double* cp = scratch;      // Thomas: the eliminated upper diagonal
+  double* dp = scratch + n;  // and right-hand side
+  // Edge i couples particles i and i+1. Diffusion conductance g = D c / L; upwind gravity flow
+  // moves p u_i down the edge when it points along gravity, q u_{i+1} when against it.
+  auto g = [&](int i) { return wicking_m2_s * capacity_per_m / edge_m[i]; };
+  auto p = [&](int i) { return flow_m_s * capacity_per_m * std::max(downhill[i], 0.0); };
+  auto q = [&](int i) { return flow_m_s * capacity_per_m * std::max(-downhill[i], 0.0); };
+  for (int i = 0; i < n; ++i) {
+    double diag = capacity[i];
+    double lower = 0.0, upper = 0.0;
+    if (i + 1 < n) {
+      diag += dt * (g(i) + p(i));
+      upper = -dt * (g(i) + q(i));
+    }
+    if (i > 0) {
+      diag += dt * (g(i - 1) + q(i - 1));
+      lower = -dt * (g(i - 1) + p(i - 1));
+    }
+    const double m = i > 0 ? diag - lower * cp[i - 1] : diag;
+    cp[i] = upper / m;
+    dp[i] = (held[i] - (i > 0 ? lower * dp[i - 1] : 0.0)) / m;
+  }
+  double u = dp[n - 1];
+  held[n - 1] = capacity[n - 1] * u;
+  for (int i = n - 2; i >= 0; --i) {
+    u = dp[i] - cp[i] * u;
+    held[i] = capacity[i] * u;
+  }
+}
+
+namespace {
+
+/// Showers and baths over [t0, t0 + dt): water into state->water_kg.
+void addSources(const HairModel& model, const WaterConfig& config, const WaterSources& sources,
+                double t0, double dt, HairState* state, WaterStepStats* stats) {
+  const int n = model.particleCount();
+  for (const WaterSource& src : sources.sources) {
+    const double on = overlapSeconds(src.start_s, src.stop_s, t0, t0 + dt);
+    if (on <= 0.0) continue;
+    if (src.kind == WaterSource::Kind::kBath) {
+      for (int i = 0; i < n; ++i) {
+        if (state->position[i].z() >= src.level_m) continue;
+        const double deficit = particleCapacity(model, config, i) - state->water_kg[i];
+        if (deficit <= 0.0) continue;
+        state->water_kg[i] += deficit;
+        stats->added_kg += deficit;
+      }
+      continue;
+    }
+    auto inColumn = [&](const Vec3& x) {
+      const double dx = x.x() - src.center_m.x(), dy = x.y() - src.center_m.y();
+      return x.z() <= src.center_m.z() && dx * dx + dy * dy <= src.radius_m * src.radius_m;
+    };
+    double length = 0.0;
+    for (int i = 0; i < n; ++i)
+      if (inColumn(state->position[i])) length += model.length_share_m[i];
+    if (length <= 0.0) continue;  // the water finds no hair
+    const double total = src.rate_kg_s * on;
+    for (int i = 0; i < n; ++i) {
+      if (!inColumn(state->position[i])) continue;
+      state->water_kg[i] += total * model.length_share_m[i] / length;
+      ++stats->shower_particles;
+    }
+    stats->added_kg += total;
+  }
+}
+
+uint32_t bucketOf(const long c[3], size_t mask) {
+  const uint64_t h = static_cast<uint64_t>(c[0]) * 73856093u ^
+                     static_cast<uint64_t>(c[1]) * 19349663u ^
+                     static_cast<uint64_t>(c[2]) * 83492791u;
+  return static_cast<uint32_t>(h & mask);
+}
+
+/// The distinct hash-grid buckets of the 27 cells around `cell` (sorted, count returned): a pair
+/// is then found once even when two of the cells share a bucket.
+int neighbourBuckets(const long cell[3], size_t mask, uint32_t out[27]) {
+  int count = 0;
+  for (long dx = -1; dx <= 1; ++dx)
+    for (long dy = -1; dy <= 1; ++dy)
+      for (long dz = -1; dz <= 1; ++dz) {
+        const long c[3] = {cell[0] + dx, cell[1] + dy, cell[2] + dz};
+        out[count++] = bucketOf(c, mask);
+      }
+  std::sort(out, out + count);
+  return static_cast<int>(std::unique(out, out + count) - out);
+}
+
+/// Particle pairs of different strands closer than the exchange radius, into scratch.pairs.
+void findContacts(const HairModel& model, const WaterConfig& config, HairState* state) {
+  WaterScratch& w = state->water_scratch;
+  const int n = model.particleCount();
+  const double r = config.exchange_radius_m;
+  const size_t mask = w.cell_start.size() - 2;  // the table's size is a power of two
+  auto cellOf = [&](const Vec3& x, long c[3]) {
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<long>(std::floor(x[a] / r));
+  };
+  // Counting sort by bucket: counts, inclusive prefix sums (each bucket's end), then filled from
+  // the back so that cell_start[b] becomes bucket b's start.
+  std::fill(w.cell_start.begin(), w.cell_start.end(), 0u);
+  for (int i = 0; i < n; ++i) {
+    long c[3];
+    cellOf(state->position[i], c);
+    w.cell_of[i] = bucketOf(c, mask);
+    ++w.cell_start[w.cell_of[i]];
+  }
+  for (size_t k = 1; k + 1 < w.cell_start.size(); ++k) w.cell_start[k] += w.cell_start[k - 1];
+  w.cell_start.back() = static_cast<uint32_t>(n);
+  for (int i = n - 1; i >= 0; --i) w.sorted[--w.cell_start[w.cell_of[i]]] = i;
+  w.pairs.clear();
+  std::fill(w.contacts.begin(), w.contacts.end(), 0u);
+  const std::vector<uint32_t>& strand = state->grid.strand_of;
+  for (int i = 0; i < n; ++i) {
+    long c[3];
+    cellOf(state->position[i], c);
+    uint32_t buckets[27];
+    const int nb = neighbourBuckets(c, mask, buckets);
+    for (int b = 0; b < nb; ++b) {
+      for (uint32_t k = w.cell_start[buckets[b]]; k < w.cell_start[buckets[b] + 1]; ++k) {
+        const uint32_t j = w.sorted[k];
+        if (j <= static_cast<uint32_t>(i) || strand[j] == strand[i]) continue;
+        if ((state->position[j] - state->position[i]).squaredNorm() > r * r) continue;
+        w.pairs.push_back(i);
+        w.pairs.push_back(j);
+        ++w.contacts[i];
+        ++w.contacts[j];
+      }
+    }
+  }
+}
+
+/// Strands in contact share water: each pair's saturations relax toward each other (explicit,
+/// from the values before the exchange, a pair's share of the rate divided by the larger contact
+/// count of its two particles so every particle's new value is a convex combination).
+void exchangeWater(const HairModel& model, const WaterConfig& config, double dt, HairState* state,
+                   WaterStepStats* stats) {
+  if (config.exchange_per_s <= 0.0) return;
+  findContacts(model, config, state);
+  WaterScratch& w = state->water_scratch;
+  const double rate = -std::expm1(-config.exchange_per_s * dt);
+  std::fill(w.delta.begin(), w.delta.end(), 0.0);
+  for (size_t k = 0; k < w.pairs.size(); k += 2) {
+    const uint32_t i = w.pairs[k], j = w.pairs[k + 1];
+    const double ci = particleCapacity(model, config, i), cj = particleCapacity(model, config, j);
+    const double share = ci * cj / (ci + cj);  // moving share (u_j - u_i) equalises the pair
+    const double t = rate / std::max(w.contacts[i], w.contacts[j]) * share *
+                     (state->water_kg[j] / cj - state->water_kg[i] / ci);
+    w.delta[i] += t;
+    w.delta[j] -= t;
+  }
+  for (int i = 0; i < model.particleCount(); ++i) state->water_kg[i] += w.delta[i];
+  stats->exchange_pairs += w.pairs.size() / 2;
+}
+
+/// Wicking and gravity flow along every strand (transportStrand on its rest edges).
+void transportAll(const HairModel& model, const WaterConfig& config, const Vec3& gravity, double dt,
+                  HairState* state) {
+  const double g = gravity.norm();
+  const Vec3 down = g > 0.0 ? Vec3(gravity / g) : Vec3::Zero();
+  const double flow = config.gravity_flow_m_s * g / 9.81;
+  WaterScratch& w = state->water_scratch;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    const int begin = model.strandBegin(s), n = model.strandSize(s);
+    double* capacity = w.strand.data();
+    for (int i = 0; i < n; ++i) capacity[i] = particleCapacity(model, config, begin + i);
+    for (int i = 0; i + 1 < n; ++i) {
+      w.edge_m[i] = model.rest_edge_m[begin + i];
+      const Vec3 e = state->position[begin + i + 1] - state->position[begin + i];
+      const double len = e.norm();
+      w.downhill[i] = len > 0.0 ? down.dot(e) / len : 0.0;
+    }
+    transportStrand(n, capacity, w.edge_m.data(), w.downhill.data(), config.capacity_kg_per_m,
+                    config.wicking_m2_s, flow, dt, state->water_kg.data() + begin,
+                    w.strand.data() + n);
+  }
+}
+
+}  // namespace
+
+void stepWater(const HairModel& model, const WaterConfig& config, const WaterSources& sources,
+               const Vec3& gravity_m_s2, double t0, double dt, HairState* state,
+               WaterStepStats* stats) {
+  WaterStepStats local;
+  addSources(model, config, sources, t0, dt, state, &local);
+  exchangeWater(model, config, dt, state, &local);
+  transportAll(model, config, gravity_m_s2, dt, state);
+  WaterScratch& w = state->water_scratch;
+  w.drip_points.clear();
+  const int n = model.particleCount();
+  for (int i = 0; i < n; ++i) {
+    const double capacity = particleCapacity(model, config, i);
+    const double dripped = drip(capacity, &state->water_kg[i]);
+    if (dripped > 0.0) {
+      local.dripped_kg += dripped;
+      ++local.drips;
+      w.drip_points.push_back(state->position[i]);
+    }
+    // The dryers' rates, weighted by the part of the step each is on.
+    double rate = config.evaporation_per_s;
+    for (const WaterDryer& d : sources.dryers) {
+      const double on = overlapSeconds(d.start_s, d.stop_s, t0, t0 + dt);
+      if (on > 0.0 &&
+          ((state->position[i] - d.center_m).cwiseAbs() - d.half_extents_m).maxCoeff() <= 0.0)
+        rate += d.rate_per_s * on / dt;
+    }
+    local.evaporated_kg += evaporate(rate, dt, &state->water_kg[i]);
+    state->saturation[i] = std::clamp(state->water_kg[i] / capacity, 0.0, 1.0);
+  }
+  WaterLedger& l = state->water_ledger;
+  l.added_kg += local.added_kg;
+  l.dripped_kg += local.dripped_kg;
+  l.evaporated_kg += local.evaporated_kg;
+  l.drips += local.drips;
+  if (stats) {
+    stats->added_kg += local.added_kg;
+    stats->dripped_kg += local.dripped_kg;
+    stats->evaporated_kg += local.evaporated_kg;
+    stats->drips += local.drips;
+    stats->exchange_pairs += local.exchange_pairs;
+    stats->shower_particles += local.shower_particles;
+  }
+}
+
+int reconcileWater(const HairModel& model, const WaterConfig& config, HairState* state) {
+  int changed = 0;
+  for (int i = 0; i < model.particleCount(); ++i) {
+    const double capacity = particleCapacity(model, config, i);
+    double& held = state->water_kg[i];
+    if (state->saturation[i] == std::clamp(held / capacity, 0.0, 1.0)) continue;
+    const double target = state->saturation[i] * capacity;
+    if (target > held)
+      state->water_ledger.added_kg += target - held;
+    else
+      state->water_ledger.removed_kg += held - target;
+    held = target;
+    ++changed;
+  }
+  return changed;
+}
+
+double heldWater(const HairState& state) {
+  double sum = 0.0;
+  for (double m : state.water_kg) sum += m;
+  return sum;
+}
+
+double meanSaturation(const HairState& state) {
+  if (state.saturation.empty()) return 0.0;
+  double sum = 0.0;
+  for (double s : state.saturation) sum += s;
+  return sum / static_cast<double>(state.saturation.size());
+}
+
+}  // namespace wet_curly_hair
