@@ -59,7 +59,10 @@ void WaterScratch::resize(int particles, int max_strand_size) {
   cell_start.assign(table + 1, 0);
   sorted.assign(particles, 0);
   cell_of.assign(particles, 0);
+  cell_key.assign(particles, 0);
   pairs.clear();
+  pairs.reserve(8 * static_cast<size_t>(particles));
+  drip_points.reserve(particles);
   drip_points.clear();
 }
 

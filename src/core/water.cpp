@@ -239,25 +239,18 @@ void addSources(const HairModel& model, const WaterConfig& config, const WaterSo
   }
 }
 
+/// A cell's coordinates packed into one key (21 bits each: cells of 5 mm span 10 km).
+uint64_t cellKey(const long c[3]) {
+  const uint64_t m = (uint64_t{1} << 21) - 1;
+  return (static_cast<uint64_t>(c[0]) & m) | (static_cast<uint64_t>(c[1]) & m) << 21 |
+         (static_cast<uint64_t>(c[2]) & m) << 42;
+}
+
 uint32_t bucketOf(const long c[3], size_t mask) {
   const uint64_t h = static_cast<uint64_t>(c[0]) * 73856093u ^
                      static_cast<uint64_t>(c[1]) * 19349663u ^
                      static_cast<uint64_t>(c[2]) * 83492791u;
   return static_cast<uint32_t>(h & mask);
-}
-
-/// The distinct hash-grid buckets of the 27 cells around `cell` (sorted, count returned): a pair
-/// is then found once even when two of the cells share a bucket.
-int neighbourBuckets(const long cell[3], size_t mask, uint32_t out[27]) {
-  int count = 0;
-  for (long dx = -1; dx <= 1; ++dx)
-    for (long dy = -1; dy <= 1; ++dy)
-      for (long dz = -1; dz <= 1; ++dz) {
-        const long c[3] = {cell[0] + dx, cell[1] + dy, cell[2] + dz};
-        out[count++] = bucketOf(c, mask);
-      }
-  std::sort(out, out + count);
-  return static_cast<int>(std::unique(out, out + count) - out);
 }
 
 /// Particle pairs of different strands closer than the exchange radius, into scratch.pairs.
@@ -276,6 +269,7 @@ void findContacts(const HairModel& model, const WaterConfig& config, HairState* 
     long c[3];
     cellOf(state->position[i], c);
     w.cell_of[i] = bucketOf(c, mask);
+    w.cell_key[i] = cellKey(c);
     ++w.cell_start[w.cell_of[i]];
   }
   for (size_t k = 1; k + 1 < w.cell_start.size(); ++k) w.cell_start[k] += w.cell_start[k - 1];
@@ -283,16 +277,22 @@ void findContacts(const HairModel& model, const WaterConfig& config, HairState* 
   for (int i = n - 1; i >= 0; --i) w.sorted[--w.cell_start[w.cell_of[i]]] = i;
   w.pairs.clear();
   std::fill(w.contacts.begin(), w.contacts.end(), 0u);
+  // A pair is found from one side only: the particle's own cell (partners of higher index) and
+  // the 13 neighbour cells that come after it in (x, y, z) order. A bucket may hold other cells'
+  // particles (hash collisions), so a candidate must be in the probed cell itself.
   const std::vector<uint32_t>& strand = state->grid.strand_of;
   for (int i = 0; i < n; ++i) {
     long c[3];
     cellOf(state->position[i], c);
-    uint32_t buckets[27];
-    const int nb = neighbourBuckets(c, mask, buckets);
-    for (int b = 0; b < nb; ++b) {
-      for (uint32_t k = w.cell_start[buckets[b]]; k < w.cell_start[buckets[b] + 1]; ++k) {
+    for (int o = 13; o < 27; ++o) {
+      const long probe[3] = {c[0] + o / 9 - 1, c[1] + (o / 3) % 3 - 1, c[2] + o % 3 - 1};
+      const uint32_t b = bucketOf(probe, mask);
+      const uint64_t key = cellKey(probe);
+      for (uint32_t k = w.cell_start[b]; k < w.cell_start[b + 1]; ++k) {
         const uint32_t j = w.sorted[k];
-        if (j <= static_cast<uint32_t>(i) || strand[j] == strand[i]) continue;
+        if ((o == 13 && j <= static_cast<uint32_t>(i)) || w.cell_key[j] != key ||
+            strand[j] == strand[i])
+          continue;
         if ((state->position[j] - state->position[i]).squaredNorm() > r * r) continue;
         w.pairs.push_back(i);
         w.pairs.push_back(j);

@@ -103,6 +103,7 @@ struct WaterScratch {
   std::vector<double> delta;                          ///< per particle: exchange.
   std::vector<uint32_t> contacts;                     ///< per particle: contact count (exchange).
   std::vector<uint32_t> cell_start, sorted, cell_of;  ///< hash grid of the exchange.
+  std::vector<uint64_t> cell_key;                     ///< per particle: its cell, packed.
   std::vector<uint32_t> pairs;                        ///< contact pairs, two indices each.
   Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
   void resize(int particles, int max_strand_size);
