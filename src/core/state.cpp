@@ -49,21 +49,21 @@ void CohesionNodeGrid::resize(size_t nodes, int particles) {
 }
 
 void WaterScratch::resize(int particles, int max_strand_size) {
-  strand.assign(4 * static_cast<size_t>(max_strand_size), 0.0);
+  strand.assign(3 * static_cast<size_t>(max_strand_size), 0.0);
   edge_m.assign(max_strand_size, 0.0);
   downhill.assign(max_strand_size, 0.0);
-  delta.assign(particles, 0.0);
-  contacts.assign(particles, 0);
   size_t table = 1;
   while (table < 2 * static_cast<size_t>(std::max(particles, 1))) table <<= 1;
-  cell_start.assign(table + 1, 0);
-  sorted.assign(particles, 0);
+  slot_key.assign(table, ~uint64_t{0});
+  slot_water.assign(table, 0.0);
+  slot_capacity.assign(table, 0.0);
+  slot_strand.assign(table, 0);
+  slot_mixed.assign(table, 0);
+  used_slots.clear();
+  used_slots.reserve(particles);
   cell_of.assign(particles, 0);
-  cell_key.assign(particles, 0);
-  pairs.clear();
-  pairs.reserve(8 * static_cast<size_t>(particles));
-  drip_points.reserve(particles);
   drip_points.clear();
+  drip_points.reserve(particles);
 }
 
 void resetState(const HairModel& model, const Pose& head_pose, const Twist& head_twist,

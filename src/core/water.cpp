@@ -18,7 +18,7 @@ bool WaterConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "gravity_flow_m_s", gravity_flow_m_s, 0.0, 10.0, why) &&
          finiteInRange(p + "evaporation_per_s", evaporation_per_s, 0.0, 1e3, why) &&
          finiteInRange(p + "exchange_per_s", exchange_per_s, 0.0, 1e3, why) &&
-         finiteInRange(p + "exchange_radius_m", exchange_radius_m, 1e-5, 0.1, why);
+         finiteInRange(p + "exchange_cell_m", exchange_cell_m, 1e-4, 0.1, why);
 }
 
 namespace {
@@ -239,91 +239,63 @@ void addSources(const HairModel& model, const WaterConfig& config, const WaterSo
   }
 }
 
+constexpr uint64_t kEmptySlot = ~uint64_t{0};
+
 /// A cell's coordinates packed into one key (21 bits each: cells of 5 mm span 10 km).
-uint64_t cellKey(const long c[3]) {
+uint64_t cellKey(const Vec3& x, double cell_m) {
   const uint64_t m = (uint64_t{1} << 21) - 1;
-  return (static_cast<uint64_t>(c[0]) & m) | (static_cast<uint64_t>(c[1]) & m) << 21 |
-         (static_cast<uint64_t>(c[2]) & m) << 42;
+  uint64_t key = 0;
+  for (int a = 0; a < 3; ++a)
+    key |= (static_cast<uint64_t>(static_cast<long>(std::floor(x[a] / cell_m))) & m) << (21 * a);
+  return key;
 }
 
-uint32_t bucketOf(const long c[3], size_t mask) {
-  const uint64_t h = static_cast<uint64_t>(c[0]) * 73856093u ^
-                     static_cast<uint64_t>(c[1]) * 19349663u ^
-                     static_cast<uint64_t>(c[2]) * 83492791u;
-  return static_cast<uint32_t>(h & mask);
-}
-
-/// Particle pairs of different strands closer than the exchange radius, into scratch.pairs.
-void findContacts(const HairModel& model, const WaterConfig& config, HairState* state) {
-  WaterScratch& w = state->water_scratch;
-  const int n = model.particleCount();
-  const double r = config.exchange_radius_m;
-  const size_t mask = w.cell_start.size() - 2;  // the table's size is a power of two
-  auto cellOf = [&](const Vec3& x, long c[3]) {
-    for (int a = 0; a < 3; ++a) c[a] = static_cast<long>(std::floor(x[a] / r));
-  };
-  // Counting sort by bucket: counts, inclusive prefix sums (each bucket's end), then filled from
-  // the back so that cell_start[b] becomes bucket b's start.
-  std::fill(w.cell_start.begin(), w.cell_start.end(), 0u);
-  for (int i = 0; i < n; ++i) {
-    long c[3];
-    cellOf(state->position[i], c);
-    w.cell_of[i] = bucketOf(c, mask);
-    w.cell_key[i] = cellKey(c);
-    ++w.cell_start[w.cell_of[i]];
+/// The slot of `key` in the open-addressing table (linear probing), claimed when new.
+uint32_t claimSlot(uint64_t key, uint32_t strand, WaterScratch* w) {
+  const size_t mask = w->slot_key.size() - 1;  // a power of two
+  size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20 & mask;
+  while (w->slot_key[h] != key && w->slot_key[h] != kEmptySlot) h = (h + 1) & mask;
+  if (w->slot_key[h] == kEmptySlot) {
+    w->slot_key[h] = key;
+    w->slot_capacity[h] = w->slot_water[h] = 0.0;
+    w->slot_strand[h] = strand;
+    w->slot_mixed[h] = 0;
+    w->used_slots.push_back(static_cast<uint32_t>(h));
   }
-  for (size_t k = 1; k + 1 < w.cell_start.size(); ++k) w.cell_start[k] += w.cell_start[k - 1];
-  w.cell_start.back() = static_cast<uint32_t>(n);
-  for (int i = n - 1; i >= 0; --i) w.sorted[--w.cell_start[w.cell_of[i]]] = i;
-  w.pairs.clear();
-  std::fill(w.contacts.begin(), w.contacts.end(), 0u);
-  // A pair is found from one side only: the particle's own cell (partners of higher index) and
-  // the 13 neighbour cells that come after it in (x, y, z) order. A bucket may hold other cells'
-  // particles (hash collisions), so a candidate must be in the probed cell itself.
-  const std::vector<uint32_t>& strand = state->grid.strand_of;
-  for (int i = 0; i < n; ++i) {
-    long c[3];
-    cellOf(state->position[i], c);
-    for (int o = 13; o < 27; ++o) {
-      const long probe[3] = {c[0] + o / 9 - 1, c[1] + (o / 3) % 3 - 1, c[2] + o % 3 - 1};
-      const uint32_t b = bucketOf(probe, mask);
-      const uint64_t key = cellKey(probe);
-      for (uint32_t k = w.cell_start[b]; k < w.cell_start[b + 1]; ++k) {
-        const uint32_t j = w.sorted[k];
-        if ((o == 13 && j <= static_cast<uint32_t>(i)) || w.cell_key[j] != key ||
-            strand[j] == strand[i])
-          continue;
-        if ((state->position[j] - state->position[i]).squaredNorm() > r * r) continue;
-        w.pairs.push_back(i);
-        w.pairs.push_back(j);
-        ++w.contacts[i];
-        ++w.contacts[j];
-      }
-    }
-  }
+  return static_cast<uint32_t>(h);
 }
 
-/// Strands in contact share water: each pair's saturations relax toward each other (explicit,
-/// from the values before the exchange, a pair's share of the rate divided by the larger contact
-/// count of its two particles so every particle's new value is a convex combination).
+/// Strands in contact share water: particles in one cell of the exchange lattice (cells of
+/// exchange_cell_m, in the world frame) relax toward the cell's saturation, u_i += r (U - u_i)
+/// with U = (water in the cell) / (capacity in the cell) and r = 1 - exp(-rate dt), in cells
+/// that hold particles of more than one strand. Exactly conservative (the capacity-weighted
+/// changes of a cell sum to zero) and a convex combination (r < 1: no particle goes negative).
+/// O(n): one pass to sum the cells (an open-addressing hash table), one to relax.
 void exchangeWater(const HairModel& model, const WaterConfig& config, double dt, HairState* state,
                    WaterStepStats* stats) {
   if (config.exchange_per_s <= 0.0) return;
-  findContacts(model, config, state);
   WaterScratch& w = state->water_scratch;
-  const double rate = -std::expm1(-config.exchange_per_s * dt);
-  std::fill(w.delta.begin(), w.delta.end(), 0.0);
-  for (size_t k = 0; k < w.pairs.size(); k += 2) {
-    const uint32_t i = w.pairs[k], j = w.pairs[k + 1];
-    const double ci = particleCapacity(model, config, i), cj = particleCapacity(model, config, j);
-    const double share = ci * cj / (ci + cj);  // moving share (u_j - u_i) equalises the pair
-    const double t = rate / std::max(w.contacts[i], w.contacts[j]) * share *
-                     (state->water_kg[j] / cj - state->water_kg[i] / ci);
-    w.delta[i] += t;
-    w.delta[j] -= t;
+  const int n = model.particleCount();
+  const std::vector<uint32_t>& strand = state->grid.strand_of;
+  for (int i = 0; i < n; ++i) {
+    const uint32_t h =
+        claimSlot(cellKey(state->position[i], config.exchange_cell_m), strand[i], &w);
+    w.cell_of[i] = h;
+    w.slot_capacity[h] += particleCapacity(model, config, i);
+    w.slot_water[h] += state->water_kg[i];
+    w.slot_mixed[h] |= w.slot_strand[h] != strand[i];
   }
-  for (int i = 0; i < model.particleCount(); ++i) state->water_kg[i] += w.delta[i];
-  stats->exchange_pairs += w.pairs.size() / 2;
+  const double r = -std::expm1(-config.exchange_per_s * dt);
+  for (int i = 0; i < n; ++i) {
+    const uint32_t h = w.cell_of[i];
+    if (!w.slot_mixed[h]) continue;
+    const double capacity = particleCapacity(model, config, i);
+    state->water_kg[i] +=
+        r * (capacity * (w.slot_water[h] / w.slot_capacity[h]) - state->water_kg[i]);
+    ++stats->exchange_particles;
+  }
+  for (uint32_t h : w.used_slots) w.slot_key[h] = kEmptySlot;
+  w.used_slots.clear();
 }
 
 /// Wicking and gravity flow along every strand (transportStrand on its rest edges).
@@ -390,7 +362,7 @@ void stepWater(const HairModel& model, const WaterConfig& config, const WaterSou
     stats->dripped_kg += local.dripped_kg;
     stats->evaporated_kg += local.evaporated_kg;
     stats->drips += local.drips;
-    stats->exchange_pairs += local.exchange_pairs;
+    stats->exchange_particles += local.exchange_particles;
     stats->shower_particles += local.shower_particles;
   }
 }

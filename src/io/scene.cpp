@@ -283,8 +283,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "speed water runs down a strand hanging along gravity, m/s", false);
   d("water.evaporation_per_s", &w.evaporation_per_s, "evaporation rate outside dryers, 1/s", false);
   d("water.exchange_per_s", &w.exchange_per_s,
-    "exchange rate between particles of strands in contact, 1/s", false);
-  d("water.exchange_radius_m", &w.exchange_radius_m, "contact distance of the exchange, m", false);
+    "rate at which strands sharing a cell share water, 1/s", false);
+  d("water.exchange_cell_m", &w.exchange_cell_m, "cell size of the exchange between strands, m",
+    false);
   return t;
 }
 

@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <map>
 #include <random>
+#include <set>
 
 #include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/water.h"
@@ -195,14 +198,14 @@ TEST(Water, EvaporationDecaysExponentiallyAndFasterInADryer) {
   EXPECT_NEAR(balance(s), 0.0, 1e-15);
 }
 
-// Two parallel strands 2 mm apart with 8 mm edges: each particle touches only its partner, whose
+// Two parallel strands 2 mm apart with 8 mm edges: each 5 mm cell holds one particle of each, whose
 // saturation difference then decays exactly as exp(-k t) (equal capacities), the sum kept.
 TEST(Water, TouchingStrandsShareWater) {
   const HairModel m = lineModel({Vec3(0, 0, 0), Vec3(0, 0.002, 0)}, 10, 0.008, Vec3(1, 0, 0));
   HairState s = makeState(m, Pose(), Twist());
   WaterConfig w = still();
   w.exchange_per_s = 2.0;
-  w.exchange_radius_m = 0.005;
+  w.exchange_cell_m = 0.005;
   SaturationCommand wet;
   wet.strands = {0};
   applySaturation(m, wet, Pose(), &s);
@@ -211,7 +214,7 @@ TEST(Water, TouchingStrandsShareWater) {
   WaterStepStats stats;
   for (int f = 0; f < 30; ++f)
     stepWater(m, w, WaterSources(), Vec3::Zero(), f * dt, dt, &s, f == 0 ? &stats : nullptr);
-  EXPECT_EQ(stats.exchange_pairs, 10u);
+  EXPECT_EQ(stats.exchange_particles, 20u);
   for (int i = 0; i < 10; ++i) {
     EXPECT_NEAR(s.saturation[i] - s.saturation[10 + i], std::exp(-2.0 * 30 * dt), 1e-12);
     EXPECT_NEAR(s.saturation[i] + s.saturation[10 + i], 1.0, 1e-12);
@@ -261,7 +264,7 @@ TEST(Water, EveryKilogramIsAccountedFor) {
   WaterConfig w;
   w.enabled = true;
   w.evaporation_per_s = 0.05;
-  w.exchange_radius_m = 0.01;
+  w.exchange_cell_m = 0.01;
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const double dt = 1.0 / 30.0;
@@ -296,7 +299,7 @@ TEST(Water, EveryKilogramIsAccountedFor) {
     }
     WaterStepStats stats;
     stepWater(m, w, src, Vec3(0, 0, -9.81), f * dt, dt, &s, &stats);
-    pairs += stats.exchange_pairs;
+    pairs += stats.exchange_particles;
     const double scale = s.water_ledger.added_kg;
     ASSERT_NEAR(balance(s), 0.0, 1e-13 * scale) << "frame " << f;
     for (size_t i = 0; i < s.water_kg.size(); ++i) {
@@ -340,7 +343,7 @@ TEST(Water, BadConfigAndSpecsAreRefusedWithTheFieldNamed) {
       {[](WaterConfig* w) { w->gravity_flow_m_s = NAN; }, "water.gravity_flow_m_s"},
       {[](WaterConfig* w) { w->evaporation_per_s = -0.1; }, "water.evaporation_per_s"},
       {[](WaterConfig* w) { w->exchange_per_s = INFINITY; }, "water.exchange_per_s"},
-      {[](WaterConfig* w) { w->exchange_radius_m = 0.0; }, "water.exchange_radius_m"},
+      {[](WaterConfig* w) { w->exchange_cell_m = 0.0; }, "water.exchange_cell_m"},
   };
   EXPECT_TRUE(WaterConfig().validate("water.", nullptr));
   for (const Case& c : cases) {
@@ -391,9 +394,11 @@ TEST(Water, BadConfigAndSpecsAreRefusedWithTheFieldNamed) {
   EXPECT_TRUE(std::isinf(e.stop_s));
 }
 
-// The exchange finds every pair of particles of different strands within its radius, once:
-// against a brute-force count on a groom shaken into random contacts.
-TEST(Water, ExchangeFindsEveryContactOnce) {
+// The exchange against a direct reference: particles grouped by the cell floor(x / cell), and in
+// each cell holding more than one strand every saturation moves toward the cell's capacity-
+// weighted mean by 1 - exp(-k dt). On a groom shaken into random contacts (hash-table collisions
+// must not merge cells).
+TEST(Water, ExchangeMixesEachSharedCellTowardItsMean) {
   GroomConfig gc;
   gc.strands = 80;
   gc.particles = 12;
@@ -406,17 +411,38 @@ TEST(Water, ExchangeFindsEveryContactOnce) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (Vec3& p : s.position) p = 0.05 * Vec3(u(rng), u(rng), u(rng));
+  for (double& x : s.saturation) x = 0.5 * (1.0 + u(rng));
   WaterConfig w = still();
-  w.exchange_per_s = 1.0;
-  w.exchange_radius_m = 0.008;
-  uint64_t brute = 0;
-  for (int a = 0; a < m.strandCount(); ++a)
-    for (int b = a + 1; b < m.strandCount(); ++b)
-      for (int i = m.strandBegin(a); i < m.strandBegin(a) + m.strandSize(a); ++i)
-        for (int j = m.strandBegin(b); j < m.strandBegin(b) + m.strandSize(b); ++j)
-          brute += (s.position[i] - s.position[j]).norm() <= w.exchange_radius_m;
+  w.exchange_per_s = 3.0;
+  w.exchange_cell_m = 0.02;
+  reconcileWater(m, w, &s);
+  const double dt = 0.05, r = 1.0 - std::exp(-3.0 * dt);
+  std::map<std::array<long, 3>, std::vector<int>> cells;
+  for (int i = 0; i < m.particleCount(); ++i) {
+    std::array<long, 3> c;
+    for (int a = 0; a < 3; ++a) c[a] = static_cast<long>(std::floor(s.position[i][a] / 0.02));
+    cells[c].push_back(i);
+  }
+  std::vector<double> expected = s.water_kg;
+  uint64_t mixed = 0;
+  for (const auto& [cell, members] : cells) {
+    double water = 0.0, capacity = 0.0;
+    std::set<uint32_t> strands;
+    for (int i : members) {
+      water += s.water_kg[i];
+      capacity += particleCapacity(m, w, i);
+      strands.insert(s.grid.strand_of[i]);
+    }
+    if (strands.size() < 2) continue;
+    for (int i : members) {
+      expected[i] += r * (particleCapacity(m, w, i) * water / capacity - s.water_kg[i]);
+      ++mixed;
+    }
+  }
   WaterStepStats stats;
-  stepWater(m, w, WaterSources(), Vec3::Zero(), 0.0, 0.01, &s, &stats);
-  ASSERT_GT(brute, 100u);
-  EXPECT_EQ(stats.exchange_pairs, brute);
+  stepWater(m, w, WaterSources(), Vec3::Zero(), 0.0, dt, &s, &stats);
+  ASSERT_GT(mixed, 100u);
+  EXPECT_EQ(stats.exchange_particles, mixed);
+  for (int i = 0; i < m.particleCount(); ++i)
+    ASSERT_NEAR(s.water_kg[i], expected[i], 1e-12 * particleCapacity(m, w, i)) << i;
 }

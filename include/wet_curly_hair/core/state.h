@@ -95,16 +95,17 @@ struct WaterLedger {
   uint64_t drips = 0;  ///< particle-steps that dripped.
 };
 
-/// Scratch of the water stage, sized once by makeState (the exchange's contact pairs grow to
-/// the most ever found and keep their storage).
+/// Scratch of the water stage, sized once by makeState.
 struct WaterScratch {
-  std::vector<double> strand;  ///< 4 per particle of the longest strand: capacities, solve.
-  std::vector<double> edge_m, downhill;               ///< per edge of the longest strand.
-  std::vector<double> delta;                          ///< per particle: exchange.
-  std::vector<uint32_t> contacts;                     ///< per particle: contact count (exchange).
-  std::vector<uint32_t> cell_start, sorted, cell_of;  ///< hash grid of the exchange.
-  std::vector<uint64_t> cell_key;                     ///< per particle: its cell, packed.
-  std::vector<uint32_t> pairs;                        ///< contact pairs, two indices each.
+  std::vector<double> strand;  ///< 3 per particle of the longest strand: capacities, solve.
+  std::vector<double> edge_m, downhill;  ///< per edge of the longest strand.
+  /// The exchange's cells: an open-addressing table of at least 2 slots per particle (key, water
+  /// and capacity sums, first strand, whether another strand shares it), the slots in use, and
+  /// each particle's slot.
+  std::vector<uint64_t> slot_key;
+  std::vector<double> slot_water, slot_capacity;
+  std::vector<uint32_t> slot_strand, used_slots, cell_of;
+  std::vector<uint8_t> slot_mixed;
   Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
   void resize(int particles, int max_strand_size);
 };

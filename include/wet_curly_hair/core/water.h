@@ -34,10 +34,11 @@ struct WaterConfig {
   double gravity_flow_m_s = 0.01;
   /// Evaporation rate outside dryers: held water decays as exp(-rate t), 1/s.
   double evaporation_per_s = 3.0e-4;
-  /// Exchange between particles of different strands closer than exchange_radius_m: their
-  /// saturations relax toward each other at this rate, 1/s (0: off).
+  /// Exchange between strands in contact: particles sharing a cell of exchange_cell_m (world
+  /// frame) with a particle of another strand relax toward the cell's saturation at this rate,
+  /// 1/s (0: off).
   double exchange_per_s = 1.0;
-  double exchange_radius_m = 0.005;  ///< contact distance for the exchange, m.
+  double exchange_cell_m = 0.005;  ///< cell size of the exchange, about a contact distance, m.
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -89,9 +90,9 @@ struct WaterStepStats {
   double added_kg = 0.0;
   double dripped_kg = 0.0;
   double evaporated_kg = 0.0;
-  uint64_t drips = 0;             ///< particles that dripped.
-  uint64_t exchange_pairs = 0;    ///< particle pairs of different strands in contact.
-  uint64_t shower_particles = 0;  ///< particles a shower wet.
+  uint64_t drips = 0;               ///< particles that dripped.
+  uint64_t exchange_particles = 0;  ///< particles in a cell with another strand's.
+  uint64_t shower_particles = 0;    ///< particles a shower wet.
 };
 
 // Kernels: stateless, on one strand or one particle (tested against analytic answers).
