@@ -149,7 +149,8 @@ int main(int argc, char** argv) {
                  why.c_str());
     return 2;
   }
-  std::printf("CPU: %s; medians over %d frames (one thread)\n", cpuLine().c_str(), o.frames);
+  std::printf("CPU: %s; medians over %d frames (the water stage on one thread)\n",
+              cpuLine().c_str(), o.frames);
   for (int n : o.strands) {
     if (!measure(o, n, &why)) {
       std::fprintf(stderr, "bench_water: %s\n", why.c_str());
