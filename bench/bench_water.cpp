@@ -1,10 +1,10 @@
 // What the water stage (core/water.h) costs against the dynamics: the built-in scene at each
 // strand count under a shower over the head and a dryer around it, every frame timed twice in
 // one run: step() (the dynamics) and stepWater() (sources, exchange, wicking and gravity flow,
-// drip, evaporation), and stepWater() once more with the exchange off (restored after, so the
-// run is the full stage's). Prints medians over the frames, the share of the dynamics, the CPU
-// model and whether it has AVX-512. Pass the solver setting to measure with --set.
-// usage: bench_water [--strands N,N,...] [--frames F] [--set name=value ...]
+// drip, evaporation) with applyWaterMass(), and stepWater() once more with the exchange off
+// (restored after, so the run is the full stage's). Prints medians over the frames, the share of
+// the dynamics, the CPU model and whether it has AVX-512. Pass the solver setting to measure with
+// --set. usage: bench_water [--strands N,N,...] [--frames F] [--set name=value ...]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>

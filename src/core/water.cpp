@@ -384,6 +384,17 @@ int reconcileWater(const HairModel& model, const WaterConfig& config, HairState*
   return changed;
 }
 
+void applyWaterMass(const HairState& state, HairModel* model) {
+  const double rho = model->linear_density_kg_per_m;
+  for (int s = 0; s < model->strandCount(); ++s) {
+    const int begin = model->strandBegin(s), n = model->strandSize(s);
+    for (int i = begin; i < begin + n; ++i) {
+      model->mass_kg[i] = rho * model->length_share_m[i] + state.water_kg[i];
+      model->inv_mass[i] = i == begin ? 0.0 : 1.0 / model->mass_kg[i];
+    }
+  }
+}
+
 double heldWater(const HairState& state) {
   double sum = 0.0;
   for (double m : state.water_kg) sum += m;

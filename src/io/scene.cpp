@@ -286,6 +286,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "rate at which strands sharing a cell share water, 1/s", false);
   d("water.exchange_cell_m", &w.exchange_cell_m, "cell size of the exchange between strands, m",
     false);
+  b("water.adds_mass", &w.adds_mass, "the held water adds to the particle masses", false);
   return t;
 }
 

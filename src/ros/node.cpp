@@ -406,6 +406,7 @@ void WetCurlyHairNode::stepWaterLocked() {
   reconcileWater(model_, scene_.water, &state_);  // books what commands set since the last frame
   stepWater(model_, scene_.water, water_sources_, scene_.solver.gravity_m_s2, sim_ns_ * 1e-9,
             frame_s_, &state_, nullptr);
+  if (scene_.water.adds_mass) applyWaterMass(state_, &model_);
   water_step_s_ = wallSince(t0);
 }
 

@@ -591,13 +591,15 @@ class StepClock {
 };
 
 /// The water stage of frame [t0, t0 + frame): commands since the last frame booked, then one
-/// water step (timed on its own: the step's wall time stays the dynamics').
-void stepSceneWater(const SceneConfig& scene, const HairModel& model, double t0, double frame,
+/// water step and the particle masses with their water (timed on its own: the step's wall time
+/// stays the dynamics').
+void stepSceneWater(const SceneConfig& scene, double t0, double frame, HairModel* model,
                     HairState* state, RunSummary* s) {
   const auto t = std::chrono::steady_clock::now();
-  reconcileWater(model, scene.water, state);
-  stepWater(model, scene.water, scene.water_sources, scene.solver.gravity_m_s2, t0, frame, state,
+  reconcileWater(*model, scene.water, state);
+  stepWater(*model, scene.water, scene.water_sources, scene.solver.gravity_m_s2, t0, frame, state,
             nullptr);
+  if (scene.water.adds_mass) applyWaterMass(*state, model);
   s->water_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
@@ -694,7 +696,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       applySaturation(model, c, in.head_start, &state);
       ++s.saturation_changes;
     }
-    if (s.water) stepSceneWater(scene, model, f * frame, frame, &state, &s);
+    if (s.water) stepSceneWater(scene, f * frame, frame, &model, &state, &s);
     in.obstacles = obstacles.empty() ? nullptr : &obstacles;
     in.clock = options.stage_timing ? &steadySeconds : nullptr;
     StepStats stats;

@@ -12,6 +12,7 @@
 #include <set>
 
 #include "wet_curly_hair/core/saturation.h"
+#include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/core/water.h"
 
 using namespace wet_curly_hair;
@@ -445,4 +446,59 @@ TEST(Water, ExchangeMixesEachSharedCellTowardItsMean) {
   EXPECT_EQ(stats.exchange_particles, mixed);
   for (int i = 0; i < m.particleCount(); ++i)
     ASSERT_NEAR(s.water_kg[i], expected[i], 1e-12 * particleCapacity(m, w, i)) << i;
+}
+
+// Wet hair is heavier: a straight chain hanging from its root, uniformly at saturation u, stretches
+// as the weight below each edge says with rho replaced by rho + c u (test_solver's
+// HangingStraightChainStretchesAsItsWeightSays, same bound: 1 %); the water's share is half the
+// stretch here, so leaving it out fails. No water gives back the dry masses bit for bit.
+TEST(Water, HeldWaterAddsToTheMassesAndTheHangingStretch) {
+  Groom g;
+  const int n = 32;
+  const double edge = 0.008;
+  for (int i = 0; i < n; ++i) g.points.push_back(Vec3(0, 0, -0.2 - edge * i));
+  g.strand_offsets = {0, static_cast<uint32_t>(n)};
+  g.root_normals = {Vec3(0, 0, -1)};
+  SolverConfig c;
+  c.core.stiffness_n = 0.0;
+  c.core.damping_n_s = 0.0;
+  c.collision.head_enabled = false;
+  c.curl.enabled = false;
+  c.adhesion.enabled = false;
+  c.cohesion.mode = "off";
+  c.stiffness.wet_factor = c.stiffness.dry_factor;  // eq. 13: wet damps as dry
+  HairModel m;
+  std::string why;
+  const double rho = GroomConfig().linear_density_kg_per_m;
+  ASSERT_TRUE(buildModel(g, rho, HeadShape(), c, &m, &why)) << why;
+  const HairModel dry = m;
+  HairState s = makeState(m, Pose(), Twist());
+  WaterConfig w = still();
+  w.capacity_kg_per_m = rho;
+  const double u = 0.5;
+  s.saturation.assign(n, u);
+  reconcileWater(m, w, &s);
+  applyWaterMass(s, &m);
+  // The bounds stay the dry ones, also when a parameter change recomputes them.
+  ASSERT_TRUE(updateSpringConstants(c, &m, &why)) << why;
+  EXPECT_EQ(m.explicit_substep_bound_s, dry.explicit_substep_bound_s);
+  EXPECT_EQ(m.max_damping_per_mass, dry.max_damping_per_mass);
+  const double frame = 1.0 / 60.0;
+  for (int f = 0; f < 360; ++f) {
+    StepInputs in;
+    StepStats stats;
+    step(m, c, in, frame, &s, &stats);
+  }
+  const double alpha = c.bend.smoothing_length_m;
+  const double k =
+      c.stretch.axial_stiffness_n / edge + c.bend.stiffness_n_m2 / (edge * alpha * alpha);
+  for (int i = 0; i + 1 < n; ++i) {
+    const double expected = (rho + w.capacity_kg_per_m * u) * 9.81 * edge * (n - 1.5 - i) / k;
+    const double got = (s.position[i + 1] - s.position[i]).norm() - edge;
+    EXPECT_NEAR(got, expected, 0.01 * expected) << "edge " << i;
+  }
+  std::fill(s.water_kg.begin(), s.water_kg.end(), 0.0);
+  applyWaterMass(s, &m);
+  EXPECT_EQ(m.mass_kg, dry.mass_kg);
+  EXPECT_EQ(m.inv_mass, dry.inv_mass);
 }

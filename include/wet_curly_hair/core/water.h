@@ -39,6 +39,9 @@ struct WaterConfig {
   /// 1/s (0: off).
   double exchange_per_s = 1.0;
   double exchange_cell_m = 0.005;  ///< cell size of the exchange, about a contact distance, m.
+  /// The held water adds to the particles' masses (gravity and inertia; applyWaterMass): wet
+  /// hair is heavier (docs/water.md "Wet hair is heavier" measures by how much it matters).
+  bool adds_mass = true;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -151,6 +154,14 @@ void stepWater(const HairModel& model, const WaterConfig& config, const WaterSou
 /// held = saturation x capacity, and the difference is booked as water added (or removed, when
 /// the command dried it), so that the ledger still balances. Returns the particles changed.
 int reconcileWater(const HairModel& model, const WaterConfig& config, HairState* state);
+
+/// Sets every particle's mass to its dry mass (rho times its length share) plus the water it
+/// holds, and the inverse mass of the non-root particles to match (roots stay kinematic). The
+/// stability bounds stay those of the dry masses, which heavier particles only loosen. The
+/// bending damping ratio falls as 1 / sqrt(mass): a strand at the flutter bound when dry
+/// (kMinBendDampingRatio) is below it soaked; the defaults are at critical dry, 0.71 at a full
+/// load of water at the default capacity.
+void applyWaterMass(const HairState& state, HairModel* model);
 
 /// Water held by the hair, kg (sum over particles).
 double heldWater(const HairState& state);
