@@ -54,11 +54,7 @@ void WaterScratch::resize(int particles, int max_strand_size) {
   downhill.assign(max_strand_size, 0.0);
   size_t table = 1;
   while (table < 2 * static_cast<size_t>(std::max(particles, 1))) table <<= 1;
-  slot_key.assign(table, ~uint64_t{0});
-  slot_water.assign(table, 0.0);
-  slot_capacity.assign(table, 0.0);
-  slot_strand.assign(table, 0);
-  slot_mixed.assign(table, 0);
+  slots.assign(table, Slot());
   used_slots.clear();
   used_slots.reserve(particles);
   cell_of.assign(particles, 0);

@@ -252,14 +252,15 @@ uint64_t cellKey(const Vec3& x, double cell_m) {
 
 /// The slot of `key` in the open-addressing table (linear probing), claimed when new.
 uint32_t claimSlot(uint64_t key, uint32_t strand, WaterScratch* w) {
-  const size_t mask = w->slot_key.size() - 1;  // a power of two
+  const size_t mask = w->slots.size() - 1;  // a power of two
   size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20 & mask;
-  while (w->slot_key[h] != key && w->slot_key[h] != kEmptySlot) h = (h + 1) & mask;
-  if (w->slot_key[h] == kEmptySlot) {
-    w->slot_key[h] = key;
-    w->slot_capacity[h] = w->slot_water[h] = 0.0;
-    w->slot_strand[h] = strand;
-    w->slot_mixed[h] = 0;
+  while (w->slots[h].key != key && w->slots[h].key != kEmptySlot) h = (h + 1) & mask;
+  if (w->slots[h].key == kEmptySlot) {
+    WaterScratch::Slot& slot = w->slots[h];
+    slot.key = key;
+    slot.capacity = slot.water = 0.0;
+    slot.strand = strand;
+    slot.mixed = 0;
     w->used_slots.push_back(static_cast<uint32_t>(h));
   }
   return static_cast<uint32_t>(h);
@@ -281,20 +282,21 @@ void exchangeWater(const HairModel& model, const WaterConfig& config, double dt,
     const uint32_t h =
         claimSlot(cellKey(state->position[i], config.exchange_cell_m), strand[i], &w);
     w.cell_of[i] = h;
-    w.slot_capacity[h] += particleCapacity(model, config, i);
-    w.slot_water[h] += state->water_kg[i];
-    w.slot_mixed[h] |= w.slot_strand[h] != strand[i];
+    WaterScratch::Slot& slot = w.slots[h];
+    slot.capacity += particleCapacity(model, config, i);
+    slot.water += state->water_kg[i];
+    slot.mixed |= slot.strand != strand[i];
   }
   const double r = -std::expm1(-config.exchange_per_s * dt);
   for (int i = 0; i < n; ++i) {
     const uint32_t h = w.cell_of[i];
-    if (!w.slot_mixed[h]) continue;
+    const WaterScratch::Slot& slot = w.slots[h];
+    if (!slot.mixed) continue;
     const double capacity = particleCapacity(model, config, i);
-    state->water_kg[i] +=
-        r * (capacity * (w.slot_water[h] / w.slot_capacity[h]) - state->water_kg[i]);
+    state->water_kg[i] += r * (capacity * (slot.water / slot.capacity) - state->water_kg[i]);
     ++stats->exchange_particles;
   }
-  for (uint32_t h : w.used_slots) w.slot_key[h] = kEmptySlot;
+  for (uint32_t h : w.used_slots) w.slots[h].key = kEmptySlot;
   w.used_slots.clear();
 }
 
@@ -333,6 +335,9 @@ void stepWater(const HairModel& model, const WaterConfig& config, const WaterSou
   WaterScratch& w = state->water_scratch;
   w.drip_points.clear();
   const int n = model.particleCount();
+  // The evaporated fraction 1 - exp(-rate dt) (evaporate()), recomputed only when the rate
+  // changes: most particles share the rate outside dryers or one dryer's.
+  double last_rate = -1.0, fraction = 0.0;
   for (int i = 0; i < n; ++i) {
     const double capacity = particleCapacity(model, config, i);
     const double dripped = drip(capacity, &state->water_kg[i]);
@@ -349,7 +354,13 @@ void stepWater(const HairModel& model, const WaterConfig& config, const WaterSou
           ((state->position[i] - d.center_m).cwiseAbs() - d.half_extents_m).maxCoeff() <= 0.0)
         rate += d.rate_per_s * on / dt;
     }
-    local.evaporated_kg += evaporate(rate, dt, &state->water_kg[i]);
+    if (rate != last_rate) {
+      last_rate = rate;
+      fraction = -std::expm1(-rate * dt);
+    }
+    const double gone = state->water_kg[i] * fraction;
+    state->water_kg[i] -= gone;
+    local.evaporated_kg += gone;
     state->saturation[i] = std::clamp(state->water_kg[i] / capacity, 0.0, 1.0);
   }
   WaterLedger& l = state->water_ledger;

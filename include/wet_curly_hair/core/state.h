@@ -99,13 +99,17 @@ struct WaterLedger {
 struct WaterScratch {
   std::vector<double> strand;  ///< 3 per particle of the longest strand: capacities, solve.
   std::vector<double> edge_m, downhill;  ///< per edge of the longest strand.
-  /// The exchange's cells: an open-addressing table of at least 2 slots per particle (key, water
-  /// and capacity sums, first strand, whether another strand shares it), the slots in use, and
-  /// each particle's slot.
-  std::vector<uint64_t> slot_key;
-  std::vector<double> slot_water, slot_capacity;
-  std::vector<uint32_t> slot_strand, used_slots, cell_of;
-  std::vector<uint8_t> slot_mixed;
+  /// One cell of the exchange: its key, water and capacity sums, first strand, whether another
+  /// strand shares it (one struct, so that a particle's visit is one cache line).
+  struct Slot {
+    uint64_t key = ~uint64_t{0};
+    double water = 0.0, capacity = 0.0;
+    uint32_t strand = 0, mixed = 0;
+  };
+  /// The exchange's cells: an open-addressing table of at least 2 slots per particle, the slots
+  /// in use, and each particle's slot.
+  std::vector<Slot> slots;
+  std::vector<uint32_t> used_slots, cell_of;
   Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
   void resize(int particles, int max_strand_size);
 };
