@@ -1,5 +1,7 @@
 #include "wet_curly_hair/core/state.h"
 
+#include <limits>
+
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
 
@@ -55,6 +57,7 @@ void WaterScratch::resize(int particles, int max_strand_size) {
   size_t table = 1;
   while (table < 2 * static_cast<size_t>(std::max(particles, 1))) table <<= 1;
   slots.assign(table, Slot());
+  exchange_until_s = std::numeric_limits<double>::quiet_NaN();
   used_slots.clear();
   used_slots.reserve(particles);
   cell_of.assign(particles, 0);

@@ -18,7 +18,8 @@ bool WaterConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "gravity_flow_m_s", gravity_flow_m_s, 0.0, 10.0, why) &&
          finiteInRange(p + "evaporation_per_s", evaporation_per_s, 0.0, 1e3, why) &&
          finiteInRange(p + "exchange_per_s", exchange_per_s, 0.0, 1e3, why) &&
-         finiteInRange(p + "exchange_cell_m", exchange_cell_m, 1e-4, 0.1, why);
+         finiteInRange(p + "exchange_cell_m", exchange_cell_m, 1e-4, 0.1, why) &&
+         finiteInRange(p + "exchange_interval_s", exchange_interval_s, 0.0, 10.0, why);
 }
 
 namespace {
@@ -328,9 +329,18 @@ void transportAll(const HairModel& model, const WaterConfig& config, const Vec3&
 void stepWater(const HairModel& model, const WaterConfig& config, const WaterSources& sources,
                const Vec3& gravity_m_s2, double t0, double dt, HairState* state,
                WaterStepStats* stats) {
+  if (!(dt > 0.0)) return;
   WaterStepStats local;
   addSources(model, config, sources, t0, dt, state, &local);
-  exchangeWater(model, config, dt, state, &local);
+  // The exchange over the time since it last ran, once that reaches its interval (a first step,
+  // or time that went back, starts it afresh at t0).
+  WaterScratch& ws = state->water_scratch;
+  if (!(ws.exchange_until_s <= t0)) ws.exchange_until_s = t0;
+  const double elapsed = t0 + dt - ws.exchange_until_s;
+  if (config.exchange_per_s > 0.0 && elapsed >= config.exchange_interval_s * (1.0 - 1e-9)) {
+    exchangeWater(model, config, elapsed, state, &local);
+    ws.exchange_until_s = t0 + dt;
+  }
   transportAll(model, config, gravity_m_s2, dt, state);
   WaterScratch& w = state->water_scratch;
   w.drip_points.clear();

@@ -138,6 +138,34 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
     true);
 }
 
+/// The water rows of parameterTable (docs/water.md).
+void addWaterParameters(SceneConfig* s, std::vector<ParamRef>* table) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef>& t = *table;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kBool, f, doc, rebuild});
+  };
+  WaterConfig& w = s->water;
+  b("water.enabled", &w.enabled,
+    "run the water stage without sources too (on whenever water.sources or water.dryers is set)",
+    false);
+  d("water.capacity_kg_per_m", &w.capacity_kg_per_m, "water a metre of strand holds, kg/m", false);
+  d("water.wicking_m2_s", &w.wicking_m2_s, "wicking diffusivity along a strand, m^2/s", false);
+  d("water.gravity_flow_m_s", &w.gravity_flow_m_s,
+    "speed water runs down a strand hanging along gravity, m/s", false);
+  d("water.evaporation_per_s", &w.evaporation_per_s, "evaporation rate outside dryers, 1/s", false);
+  d("water.exchange_per_s", &w.exchange_per_s,
+    "rate at which strands sharing a cell share water, 1/s", false);
+  d("water.exchange_cell_m", &w.exchange_cell_m, "cell size of the exchange between strands, m",
+    false);
+  d("water.exchange_interval_s", &w.exchange_interval_s,
+    "the exchange runs once this much time has passed, over that time, s (0: every frame)", false);
+  b("water.adds_mass", &w.adds_mass, "the held water adds to the particle masses", false);
+}
+
 }  // namespace
 
 std::vector<ParamRef> parameterTable(SceneConfig* s) {
@@ -273,20 +301,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "treat unknown space as occupied", false);
   d("saturation.root", &s->saturation.root, "initial saturation at the roots, [0, 1]", false);
   d("saturation.tip", &s->saturation.tip, "initial saturation at the tips, [0, 1]", false);
-  WaterConfig& w = s->water;
-  b("water.enabled", &w.enabled,
-    "run the water stage without sources too (on whenever water.sources or water.dryers is set)",
-    false);
-  d("water.capacity_kg_per_m", &w.capacity_kg_per_m, "water a metre of strand holds, kg/m", false);
-  d("water.wicking_m2_s", &w.wicking_m2_s, "wicking diffusivity along a strand, m^2/s", false);
-  d("water.gravity_flow_m_s", &w.gravity_flow_m_s,
-    "speed water runs down a strand hanging along gravity, m/s", false);
-  d("water.evaporation_per_s", &w.evaporation_per_s, "evaporation rate outside dryers, 1/s", false);
-  d("water.exchange_per_s", &w.exchange_per_s,
-    "rate at which strands sharing a cell share water, 1/s", false);
-  d("water.exchange_cell_m", &w.exchange_cell_m, "cell size of the exchange between strands, m",
-    false);
-  b("water.adds_mass", &w.adds_mass, "the held water adds to the particle masses", false);
+  addWaterParameters(s, &t);
   return t;
 }
 

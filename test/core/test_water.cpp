@@ -200,25 +200,30 @@ TEST(Water, EvaporationDecaysExponentiallyAndFasterInADryer) {
 }
 
 // Two parallel strands 2 mm apart with 8 mm edges: each 5 mm cell holds one particle of each, whose
-// saturation difference then decays exactly as exp(-k t) (equal capacities), the sum kept.
+// saturation difference then decays exactly as exp(-k t) (equal capacities), the sum kept. Run
+// every frame (interval 0) or every third (interval 0.05 s at 60 frames/s, over the elapsed
+// time): the same decay at the frames where it ran.
 TEST(Water, TouchingStrandsShareWater) {
-  const HairModel m = lineModel({Vec3(0, 0, 0), Vec3(0, 0.002, 0)}, 10, 0.008, Vec3(1, 0, 0));
-  HairState s = makeState(m, Pose(), Twist());
-  WaterConfig w = still();
-  w.exchange_per_s = 2.0;
-  w.exchange_cell_m = 0.005;
-  SaturationCommand wet;
-  wet.strands = {0};
-  applySaturation(m, wet, Pose(), &s);
-  reconcileWater(m, w, &s);
-  const double dt = 1.0 / 60.0;
-  WaterStepStats stats;
-  for (int f = 0; f < 30; ++f)
-    stepWater(m, w, WaterSources(), Vec3::Zero(), f * dt, dt, &s, f == 0 ? &stats : nullptr);
-  EXPECT_EQ(stats.exchange_particles, 20u);
-  for (int i = 0; i < 10; ++i) {
-    EXPECT_NEAR(s.saturation[i] - s.saturation[10 + i], std::exp(-2.0 * 30 * dt), 1e-12);
-    EXPECT_NEAR(s.saturation[i] + s.saturation[10 + i], 1.0, 1e-12);
+  for (const double interval : {0.0, 0.05}) {
+    const HairModel m = lineModel({Vec3(0, 0, 0), Vec3(0, 0.002, 0)}, 10, 0.008, Vec3(1, 0, 0));
+    HairState s = makeState(m, Pose(), Twist());
+    WaterConfig w = still();
+    w.exchange_per_s = 2.0;
+    w.exchange_cell_m = 0.005;
+    w.exchange_interval_s = interval;
+    SaturationCommand wet;
+    wet.strands = {0};
+    applySaturation(m, wet, Pose(), &s);
+    reconcileWater(m, w, &s);
+    const double dt = 1.0 / 60.0;
+    WaterStepStats stats;
+    for (int f = 0; f < 30; ++f)
+      stepWater(m, w, WaterSources(), Vec3::Zero(), f * dt, dt, &s, &stats);
+    EXPECT_EQ(stats.exchange_particles, interval > 0.0 ? 200u : 600u);
+    for (int i = 0; i < 10; ++i) {
+      EXPECT_NEAR(s.saturation[i] - s.saturation[10 + i], std::exp(-2.0 * 30 * dt), 1e-12);
+      EXPECT_NEAR(s.saturation[i] + s.saturation[10 + i], 1.0, 1e-12);
+    }
   }
 }
 
@@ -345,6 +350,7 @@ TEST(Water, BadConfigAndSpecsAreRefusedWithTheFieldNamed) {
       {[](WaterConfig* w) { w->evaporation_per_s = -0.1; }, "water.evaporation_per_s"},
       {[](WaterConfig* w) { w->exchange_per_s = INFINITY; }, "water.exchange_per_s"},
       {[](WaterConfig* w) { w->exchange_cell_m = 0.0; }, "water.exchange_cell_m"},
+      {[](WaterConfig* w) { w->exchange_interval_s = -1.0; }, "water.exchange_interval_s"},
   };
   EXPECT_TRUE(WaterConfig().validate("water.", nullptr));
   for (const Case& c : cases) {

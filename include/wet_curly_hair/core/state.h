@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "wet_curly_hair/core/model.h"
@@ -110,6 +111,8 @@ struct WaterScratch {
   /// in use, and each particle's slot.
   std::vector<Slot> slots;
   std::vector<uint32_t> used_slots, cell_of;
+  /// Simulated time up to which the exchange has run (NaN: not yet), s.
+  double exchange_until_s = std::numeric_limits<double>::quiet_NaN();
   Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
   void resize(int particles, int max_strand_size);
 };

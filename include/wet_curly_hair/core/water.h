@@ -39,6 +39,11 @@ struct WaterConfig {
   /// 1/s (0: off).
   double exchange_per_s = 1.0;
   double exchange_cell_m = 0.005;  ///< cell size of the exchange, about a contact distance, m.
+  /// The exchange runs once this much simulated time has passed since it last ran, over that
+  /// time (its relaxation is exact over any step), s: its time constant, 1 / exchange_per_s, is
+  /// 1 s by default, far longer, and it is two thirds of the stage's cost (docs/water.md "Cost").
+  /// 0: every step.
+  double exchange_interval_s = 0.05;
   /// The held water adds to the particles' masses (gravity and inertia; applyWaterMass): wet
   /// hair is heavier (docs/water.md "Wet hair is heavier" measures by how much it matters).
   bool adds_mass = true;
