@@ -139,19 +139,23 @@ bool strandSpringConstants(const SolverConfig& c, int s, bool stabilize, HairMod
 }
 
 /// The explicit substep bound and the damping-pass bound of strand s (HairModel fields), folded
-/// into the model's.
+/// into the model's. On the dry masses: water held by the hair (water.h, applyWaterMass) only
+/// makes particles heavier, and heavier particles only loosen both bounds.
 void strandStabilityBounds(int s, HairModel* m) {
   const int begin = m->strandBegin(s), n = m->strandSize(s);
+  auto dryInvMass = [&](int k) {
+    return 1.0 / (m->linear_density_kg_per_m * m->length_share_m[k]);
+  };
   const double shared = m->bend_k[s] + m->core_k[s] + m->curl_k[s];
   const double shared_c = m->bend_c[s] + m->core_c[s];
   double lambda = 0.0, damping = m->max_damping_per_mass;
   for (int i = 1; i < n; ++i) {
     const double k_in = m->stretch_k[begin + i - 1] + shared;
     const double k_out = i + 1 < n ? m->stretch_k[begin + i] + shared : 0.0;
-    lambda = std::max(lambda, 2.0 * (k_in + k_out) * m->inv_mass[begin + i]);
+    lambda = std::max(lambda, 2.0 * (k_in + k_out) * dryInvMass(begin + i));
     const double c_in = m->stretch_c[begin + i - 1] + shared_c;
     const double c_out = i + 1 < n ? m->stretch_c[begin + i] + shared_c : 0.0;
-    damping = std::max(damping, std::max(c_in, c_out) * m->inv_mass[begin + i]);
+    damping = std::max(damping, std::max(c_in, c_out) * dryInvMass(begin + i));
   }
   m->max_damping_per_mass = damping;
   if (lambda > 0.0) {

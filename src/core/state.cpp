@@ -1,5 +1,7 @@
 #include "wet_curly_hair/core/state.h"
 
+#include <limits>
+
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
 
@@ -48,6 +50,21 @@ void CohesionNodeGrid::resize(size_t nodes, int particles) {
     v->assign(padded_particles, 0.0f);
 }
 
+void WaterScratch::resize(int particles, int max_strand_size) {
+  strand.assign(3 * static_cast<size_t>(max_strand_size), 0.0);
+  edge_m.assign(max_strand_size, 0.0);
+  downhill.assign(max_strand_size, 0.0);
+  size_t table = 1;
+  while (table < 2 * static_cast<size_t>(std::max(particles, 1))) table <<= 1;
+  slots.assign(table, Slot());
+  exchange_until_s = std::numeric_limits<double>::quiet_NaN();
+  used_slots.clear();
+  used_slots.reserve(particles);
+  cell_of.assign(particles, 0);
+  drip_points.clear();
+  drip_points.reserve(particles);
+}
+
 void resetState(const HairModel& model, const Pose& head_pose, const Twist& head_twist,
                 HairState* state) {
   for (int i = 0; i < model.particleCount(); ++i) {
@@ -72,6 +89,8 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.position.assign(n, Vec3::Zero());
   state.velocity.assign(n, Vec3::Zero());
   state.saturation.assign(n, 0.0);
+  state.water_kg.assign(n, 0.0);
+  state.water_scratch.resize(n, model.max_strand_size);
   state.wet_position.assign(n, Vec3::Zero());
   state.curl_rotation.assign(model.strandCount(), Mat3::Identity());
   state.external_force.assign(n, Vec3::Zero());

@@ -33,6 +33,13 @@ bool SceneConfig::validate(std::string* why) const {
     return false;
   for (size_t k = 0; k < obstacles.size(); ++k)
     if (!obstacles[k].validate("obstacles[" + std::to_string(k) + "].", why)) return false;
+  if (!water.validate("water.", why)) return false;
+  for (size_t k = 0; k < water_sources.sources.size(); ++k)
+    if (!water_sources.sources[k].validate("water.sources[" + std::to_string(k) + "].", why))
+      return false;
+  for (size_t k = 0; k < water_sources.dryers.size(); ++k)
+    if (!water_sources.dryers[k].validate("water.dryers[" + std::to_string(k) + "].", why))
+      return false;
   if (!groom_file.file.empty()) {
     if (!positive("groom_file.scale", groom_file.scale, why) ||
         !finiteVec("groom_file.offset_m", groom_file.offset_m, why))
@@ -129,6 +136,34 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   d("groom_file.min_edge_m", &gf.min_edge_m,
     "shortest edge kept: finer strands are resampled, strands under two edges skipped, m (0: off)",
     true);
+}
+
+/// The water rows of parameterTable (docs/water.md).
+void addWaterParameters(SceneConfig* s, std::vector<ParamRef>* table) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef>& t = *table;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kBool, f, doc, rebuild});
+  };
+  WaterConfig& w = s->water;
+  b("water.enabled", &w.enabled,
+    "run the water stage without sources too (on whenever water.sources or water.dryers is set)",
+    false);
+  d("water.capacity_kg_per_m", &w.capacity_kg_per_m, "water a metre of strand holds, kg/m", false);
+  d("water.wicking_m2_s", &w.wicking_m2_s, "wicking diffusivity along a strand, m^2/s", false);
+  d("water.gravity_flow_m_s", &w.gravity_flow_m_s,
+    "speed water runs down a strand hanging along gravity, m/s", false);
+  d("water.evaporation_per_s", &w.evaporation_per_s, "evaporation rate outside dryers, 1/s", false);
+  d("water.exchange_per_s", &w.exchange_per_s,
+    "rate at which strands sharing a cell share water, 1/s", false);
+  d("water.exchange_cell_m", &w.exchange_cell_m, "cell size of the exchange between strands, m",
+    false);
+  d("water.exchange_interval_s", &w.exchange_interval_s,
+    "the exchange runs once this much time has passed, over that time, s (0: every frame)", false);
+  b("water.adds_mass", &w.adds_mass, "the held water adds to the particle masses", false);
 }
 
 }  // namespace
@@ -266,6 +301,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "treat unknown space as occupied", false);
   d("saturation.root", &s->saturation.root, "initial saturation at the roots, [0, 1]", false);
   d("saturation.tip", &s->saturation.tip, "initial saturation at the tips, [0, 1]", false);
+  addWaterParameters(s, &t);
   return t;
 }
 
@@ -520,10 +556,29 @@ struct YamlWalker {
     return true;
   }
 
+  /// water.sources / water.dryers: lists of spec strings (WaterSource / WaterDryer::parse).
+  template <typename T>
+  bool specList(const std::string& key, const YAML::Node& node, std::vector<T>* out) {
+    if (!node.IsSequence()) return fail(key + ": must be a list of spec strings");
+    std::vector<T> list;
+    for (size_t k = 0; k < node.size(); ++k) {
+      const std::string p = key + "[" + std::to_string(k) + "]";
+      if (!node[k].IsScalar()) return fail(p + ": must be a spec string");
+      T item;
+      std::string inner;
+      if (!T::parse(node[k].Scalar(), &item, &inner)) return fail(p + ": " + inner);
+      list.push_back(item);
+    }
+    *out = list;
+    return true;
+  }
+
   bool walk(const std::string& prefix, const YAML::Node& node) {
     if (node.IsNull()) return prefix.empty() ? true : fail(prefix + ": has no value");
     if (prefix == "head.capsules") return capsules(prefix, node);
     if (prefix == "obstacles") return obstacleList(prefix, node);
+    if (prefix == "water.sources") return specList(prefix, node, &scene->water_sources.sources);
+    if (prefix == "water.dryers") return specList(prefix, node, &scene->water_sources.dryers);
     if (node.IsMap()) {
       for (const auto& kv : node) {
         std::string sub;
@@ -636,6 +691,16 @@ std::string sceneToYaml(const SceneConfig& scene_in) {
       }
       open.resize(1);
     }
+  }
+  // The water section is the table's last: its lists follow its keys.
+  if (!scene.water_sources.sources.empty()) {
+    out << "  sources:  # shower:x,y,z,r,rate_kg_s,start_s,stop_s or bath:z,start_s,stop_s\n";
+    for (const WaterSource& w : scene.water_sources.sources)
+      out << "    - \"" << w.spec() << "\"\n";
+  }
+  if (!scene.water_sources.dryers.empty()) {
+    out << "  dryers:  # box:x,y,z,hx,hy,hz,rate_per_s,start_s,stop_s (world frame, m, 1/s)\n";
+    for (const WaterDryer& d : scene.water_sources.dryers) out << "    - \"" << d.spec() << "\"\n";
   }
   if (!scene.obstacles.empty()) {
     out << "obstacles:  # world frame, m\n";

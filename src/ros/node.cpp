@@ -90,6 +90,8 @@ void WetCurlyHairNode::init() {
   frame_ns_ = std::llround(1e9 / config_.publish_rate);
   frame_s_ = frame_ns_ * 1e-9;
   obstacles_.analytic = scene_.obstacles;
+  water_sources_ = scene_.water_sources;
+  water_active_ = scene_.waterActive();
   resetHairLocked(Pose(), "start-up");
   reset_count_ = 0;
 
@@ -131,6 +133,8 @@ void WetCurlyHairNode::init() {
   octomap_sub_ = nh_input_.subscribe("octomap_binary", 1, &WetCurlyHairNode::onOctomap, this);
   saturation_sub_ =
       pnh_input_.subscribe("saturation_changes", 100, &WetCurlyHairNode::onSaturationChange, this);
+  set_water_srv_ = pnh_input_.advertiseService("set_water", &WetCurlyHairNode::onSetWater, this);
+  water_sub_ = pnh_input_.subscribe("water_changes", 100, &WetCurlyHairNode::onWaterChange, this);
 
   mirrorSceneToRos(pnh_, scene_);
 
@@ -188,7 +192,8 @@ void WetCurlyHairNode::onTimer(const ros::TimerEvent&) {
       if (started_) {
         ++time_jumps_back_;
         pending_changes_.clear();  // scheduled on the old timeline
-        pose_ever_ = false;        // take the pose again, as at start-up
+        pending_water_.clear();
+        pose_ever_ = false;  // take the pose again, as at start-up
         resetHairLocked(head_pose_, "ROS time jumped back");
         ROS_WARN("ROS time jumped back by %.3f s (a looping bag?): the hair is reset",
                  (last_now_ - now).toSec());
@@ -335,6 +340,7 @@ void WetCurlyHairNode::advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lo
   }
   const Pose end = lookup.ok ? lookup.pose : head_pose_;
   applyDueChangesLocked(sim_ns_);
+  stepWaterLocked();
   StepInputs in;
   in.head_start = head_pose_;
   in.head_end = end;
@@ -383,6 +389,25 @@ void WetCurlyHairNode::applyDueChangesLocked(int64_t t_ns) {
     }
     applySaturation(model_, cmd, head_pose_, &state_);
   }
+}
+
+void WetCurlyHairNode::stepWaterLocked() {
+  while (!pending_water_.empty() && pending_water_.begin()->first <= sim_ns_) {
+    const WaterCommand& c = pending_water_.begin()->second;
+    if (c.clear) water_sources_ = WaterSources();
+    for (const WaterSource& w : c.add.sources) water_sources_.sources.push_back(w);
+    for (const WaterDryer& d : c.add.dryers) water_sources_.dryers.push_back(d);
+    water_active_ = true;
+    pending_water_.erase(pending_water_.begin());
+  }
+  water_step_s_ = 0.0;
+  if (!water_active_) return;
+  const auto t0 = Clock::now();
+  reconcileWater(model_, scene_.water, &state_);  // books what commands set since the last frame
+  stepWater(model_, scene_.water, water_sources_, scene_.solver.gravity_m_s2, sim_ns_ * 1e-9,
+            frame_s_, &state_, nullptr);
+  if (scene_.water.adds_mass) applyWaterMass(state_, &model_);
+  water_step_s_ = wallSince(t0);
 }
 
 void WetCurlyHairNode::publishStrandsLocked() {
@@ -483,6 +508,19 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->particles = model_.particleCount();
   s->strands_skipped = strands_skipped_;
   s->saturation_changes_pending = static_cast<uint32_t>(pending_changes_.size());
+  s->water_active = water_active_;
+  const WaterLedger& l = state_.water_ledger;
+  s->water_added_kg = l.added_kg;
+  s->water_removed_kg = l.removed_kg;
+  s->water_held_kg = heldWater(state_);
+  s->water_dripped_kg = l.dripped_kg;
+  s->water_evaporated_kg = l.evaporated_kg;
+  s->water_drips = l.drips;
+  s->mean_saturation = meanSaturation(state_);
+  s->water_sources = static_cast<uint32_t>(water_sources_.sources.size());
+  s->water_dryers = static_cast<uint32_t>(water_sources_.dryers.size());
+  s->water_changes_pending = static_cast<uint32_t>(pending_water_.size());
+  s->water_step_time_s = water_step_s_;
 }
 
 // ------------------------------------------------------------------------------------------
@@ -738,6 +776,72 @@ void WetCurlyHairNode::onSaturationChange(const SaturationChange::ConstPtr& msg)
   pending_changes_.emplace(at, cmd);  // equal stamps keep their arrival order
 }
 
+namespace {
+
+/// Spec strings into sources and dryers, all or nothing; names the list, index and field.
+bool parseWaterSpecs(const std::vector<std::string>& sources,
+                     const std::vector<std::string>& dryers, WaterSources* out, std::string* why) {
+  WaterSources parsed;
+  for (size_t k = 0; k < sources.size(); ++k) {
+    std::string inner;
+    if (!WaterSource::parse(sources[k], &parsed.sources.emplace_back(), &inner)) {
+      *why = "sources[" + std::to_string(k) + "]: " + inner;
+      return false;
+    }
+  }
+  for (size_t k = 0; k < dryers.size(); ++k) {
+    std::string inner;
+    if (!WaterDryer::parse(dryers[k], &parsed.dryers.emplace_back(), &inner)) {
+      *why = "dryers[" + std::to_string(k) + "]: " + inner;
+      return false;
+    }
+  }
+  *out = parsed;
+  return true;
+}
+
+}  // namespace
+
+bool WetCurlyHairNode::onSetWater(SetWater::Request& req, SetWater::Response& res) {
+  res.success = false;
+  WaterSources add;
+  std::string why;
+  std::lock_guard<std::mutex> lock(sim_mutex_);
+  res.sources_active = static_cast<uint32_t>(water_sources_.sources.size());
+  res.dryers_active = static_cast<uint32_t>(water_sources_.dryers.size());
+  if (!parseWaterSpecs(req.sources, req.dryers, &add, &why)) {
+    res.message = "refused, nothing changed: " + why;
+    return true;
+  }
+  if (req.clear) water_sources_ = WaterSources();
+  for (const WaterSource& w : add.sources) water_sources_.sources.push_back(w);
+  for (const WaterDryer& d : add.dryers) water_sources_.dryers.push_back(d);
+  water_active_ = true;
+  res.success = true;
+  res.sources_active = static_cast<uint32_t>(water_sources_.sources.size());
+  res.dryers_active = static_cast<uint32_t>(water_sources_.dryers.size());
+  res.message = std::string(req.clear ? "stopped every source and dryer; " : "") + "added " +
+                std::to_string(add.sources.size()) + " source(s) and " +
+                std::to_string(add.dryers.size()) +
+                " dryer(s); in use: " + std::to_string(res.sources_active) + " source(s), " +
+                std::to_string(res.dryers_active) + " dryer(s)";
+  return true;
+}
+
+void WetCurlyHairNode::onWaterChange(const WaterChange::ConstPtr& msg) {
+  WaterCommand c;
+  std::string why;
+  if (!parseWaterSpecs(msg->sources, msg->dryers, &c.add, &why)) {
+    ROS_WARN("~water_changes: refused: %s", why.c_str());
+    return;
+  }
+  c.clear = msg->clear;
+  std::lock_guard<std::mutex> lock(sim_mutex_);
+  const int64_t at =
+      msg->header.stamp.isZero() ? INT64_MIN : static_cast<int64_t>(msg->header.stamp.toNSec());
+  pending_water_.emplace(at, c);  // equal stamps keep their arrival order
+}
+
 bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameters::Response& res) {
   res.success = false;
   res.reset = false;
@@ -821,6 +925,7 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     std::lock_guard<std::mutex> lock(sim_mutex_);
     scene_ = copy;
     obstacles_.analytic = scene_.obstacles;
+    water_active_ = water_active_ || scene_.water.enabled;
     if (rebuild) {
       model_ = std::move(model);
       strands_skipped_ = static_cast<uint32_t>(report.skipped.size());

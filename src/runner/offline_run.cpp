@@ -14,6 +14,7 @@
 #include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/core/water.h"
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/json.h"
 #include "wet_curly_hair/io/octomap_sdf.h"
@@ -78,6 +79,14 @@ std::string RunSummary::toJson() const {
       .add("mean_strand_extension_start", mean_strand_extension_start)
       .add("mean_strand_extension_end", mean_strand_extension_end)
       .add("saturation_changes", saturation_changes)
+      .add("water", water)
+      .add("water_added_kg", water_added_kg)
+      .add("water_removed_kg", water_removed_kg)
+      .add("water_held_kg", water_held_kg)
+      .add("water_dripped_kg", water_dripped_kg)
+      .add("water_evaporated_kg", water_evaporated_kg)
+      .add("water_drips", static_cast<unsigned long long>(water_drips))
+      .add("water_wall_s", water_wall_s)
       .add("rss_start_kb", static_cast<long long>(rss_start_kb))
       .add("rss_end_kb", static_cast<long long>(rss_end_kb))
       .add("rss_peak_kb", static_cast<long long>(rss_peak_kb))
@@ -92,7 +101,11 @@ std::string RunSummary::toJson() const {
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
-      .add("max_speed_m_s", max_speed_m_s);
+      .add("max_speed_m_s", max_speed_m_s)
+      .add("mean_saturation", mean_saturation)
+      .add("water_held_series_kg", water_held_series_kg)
+      .add("mean_tip_height_m", mean_tip_height_m)
+      .add("clump_distance_series_m", clump_distance_series_m);
   JsonObject stages;
   for (size_t k = 0; k < stage_particles.size() && k < stage_cpu_s.size(); ++k) {
     JsonObject stage;
@@ -112,8 +125,8 @@ std::string RunSummary::toJson() const {
 
 const char* measurementName(Measurement m) {
   static const char* const kNames[kMeasurementCount] = {
-      "rigid_motion", "energy",        "strain",         "head_penetration", "obstacles",
-      "jitter",       "tangle_series", "clump_distance", "tangles",          "curl_shape"};
+      "rigid_motion",  "energy",         "strain",  "head_penetration", "obstacles", "jitter",
+      "tangle_series", "clump_distance", "tangles", "curl_shape",       "water"};
   return m >= 0 && m < kMeasurementCount ? kNames[m] : "";
 }
 
@@ -347,7 +360,9 @@ class FrameMeasurements {
         s->energy.push_back(e.total());
         s->kinetic_energy.push_back(e.kinetic);
         s->max_speed_m_s.push_back(maxSpeed(model_, *state));
+        s->mean_saturation.push_back(meanSaturation(*state));
       });
+      if (scene_.waterActive()) timed(kMeasureWater, [&] { measureWater(*state, s); });
     }
     // Strain and extension are one pass over the edges (lengthStats), timed as "strain".
     timed(kMeasureStrain, [&] {
@@ -371,6 +386,18 @@ class FrameMeasurements {
                                         &scratch_, threads_, sample_stride_));
       });
     }
+  }
+
+  /// The water series of one frame: held water, mean tip height, clump distance.
+  void measureWater(const HairState& state, RunSummary* s) {
+    s->water_held_series_kg.push_back(heldWater(state));
+    double z = 0.0;
+    for (int k = 0; k < model_.strandCount(); ++k)
+      z += state.position[model_.strandBegin(k) + model_.strandSize(k) - 1].z();
+    s->mean_tip_height_m.push_back(model_.strandCount() ? z / model_.strandCount() : 0.0);
+    s->clump_distance_series_m.push_back(clumpDistance(model_, state.wet_position, state.saturation,
+                                                       scene_.run.clump_search_m, &scratch_,
+                                                       threads_, sample_stride_));
   }
 
   /// The measurements of the last frame and the means over the run.
@@ -563,6 +590,19 @@ class StepClock {
   double wall_ = 0.0, window_wall_ = 0.0, window_sim_ = 0.0;
 };
 
+/// The water stage of frame [t0, t0 + frame): commands since the last frame booked, then one
+/// water step and the particle masses with their water (timed on its own: the step's wall time
+/// stays the dynamics').
+void stepSceneWater(const SceneConfig& scene, double t0, double frame, HairModel* model,
+                    HairState* state, RunSummary* s) {
+  const auto t = std::chrono::steady_clock::now();
+  reconcileWater(*model, scene.water, state);
+  stepWater(*model, scene.water, scene.water_sources, scene.solver.gravity_m_s2, t0, frame, state,
+            nullptr);
+  if (scene.water.adds_mass) applyWaterMass(*state, model);
+  s->water_wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
 /// The run's end state: steps, times, warnings, finiteness, memory.
 void finishSummary(const HairModel& model, const HairState& state, double sim_s, double wall_s,
                    RunSummary* s) {
@@ -629,6 +669,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.substep_s = frame / substepCount(model, scene.solver, frame);
   FrameMeasurements measurements(scene, model, obstacles, options, frames);
   measurements.timed(kMeasureRigidMotion, [&] { measureRigidMotion(scene, model, frames, &s); });
+  s.water = scene.waterActive();
+  if (s.water) reconcileWater(model, scene.water, &state);  // the initial water is added
 
   // Frame f is done: measured, handed to on_frame, written every hair_stride frames.
   auto frameDone = [&](long f, const Pose& pose) {
@@ -654,6 +696,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       applySaturation(model, c, in.head_start, &state);
       ++s.saturation_changes;
     }
+    if (s.water) stepSceneWater(scene, f * frame, frame, &model, &state, &s);
     in.obstacles = obstacles.empty() ? nullptr : &obstacles;
     in.clock = options.stage_timing ? &steadySeconds : nullptr;
     StepStats stats;
@@ -665,6 +708,13 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   }
   measurements.finish(state, &s);
   finishSummary(model, state, frames * frame, clock.wall(), &s);
+  const WaterLedger& ledger = state.water_ledger;
+  s.water_added_kg = ledger.added_kg;
+  s.water_removed_kg = ledger.removed_kg;
+  s.water_held_kg = s.water ? heldWater(state) : 0.0;
+  s.water_dripped_kg = ledger.dripped_kg;
+  s.water_evaporated_kg = ledger.evaporated_kg;
+  s.water_drips = ledger.drips;
   *out = std::move(s);
   return true;
 }

@@ -29,6 +29,11 @@ const char* kUsage =
     "                          [--sample-strands N]\n"
     "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window "
     "S]\n"
+    "                          [--water-source shower:x=..,y=..,z=..,r=..,rate_kg_s=..,start_s=..,"
+    "stop_s=..]...\n"
+    "                          [--water-source bath:z=..,start_s=..,stop_s=..]...\n"
+    "                          [--dryer box:x=..,y=..,z=..,hx=..,hy=..,hz=..,rate_per_s=..,"
+    "start_s=..,stop_s=..]...\n"
     "integrators: explicit, backward_euler, midpoint, theta (--set solver.integrator.theta=T)\n"
     "motions: still, spin:rate_hz=R, nod:freq_hz=F,amplitude_rad=A, "
     "shake:freq_hz=F,amplitude_rad=A,\n"
@@ -53,6 +58,7 @@ struct CommandLine {
   /// Every override is a dotted scene key and its YAML value text, applied on top of the scene.
   std::vector<std::pair<std::string, std::string>> overrides;
   std::vector<wet_curly_hair::AnalyticObstacle> extra_obstacles;
+  wet_curly_hair::WaterSources extra_water;  ///< --water-source and --dryer, added to the scene's
   bool print_scene = false;
   bool help = false;
   bool seconds_given = false;
@@ -249,6 +255,26 @@ Parsed parseSceneFlag(Arguments* args, CommandLine* cl, std::string* why) {
     cl->extra_obstacles.push_back(o);
     return Parsed::kOk;
   }
+  if (a == "--water-source") {
+    wet_curly_hair::WaterSource w;
+    if (!args->value(&v, why)) return Parsed::kBad;
+    if (!wet_curly_hair::WaterSource::parse(v, &w, why)) {
+      *why = "--water-source: " + *why;
+      return Parsed::kBad;
+    }
+    cl->extra_water.sources.push_back(w);
+    return Parsed::kOk;
+  }
+  if (a == "--dryer") {
+    wet_curly_hair::WaterDryer d;
+    if (!args->value(&v, why)) return Parsed::kBad;
+    if (!wet_curly_hair::WaterDryer::parse(v, &d, why)) {
+      *why = "--dryer: " + *why;
+      return Parsed::kBad;
+    }
+    cl->extra_water.dryers.push_back(d);
+    return Parsed::kOk;
+  }
   if (a == "--obstacle-map") {
     const bool ok = args->value(&v, why);
     cl->overrides.emplace_back("obstacle_map.file", "\"" + v + "\"");
@@ -295,6 +321,10 @@ bool applyToScene(CommandLine* cl, std::string* why) {
     return false;
   cl->scene.obstacles.insert(cl->scene.obstacles.end(), cl->extra_obstacles.begin(),
                              cl->extra_obstacles.end());
+  for (const wet_curly_hair::WaterSource& w : cl->extra_water.sources)
+    cl->scene.water_sources.sources.push_back(w);
+  for (const wet_curly_hair::WaterDryer& d : cl->extra_water.dryers)
+    cl->scene.water_sources.dryers.push_back(d);
   return true;
 }
 

@@ -90,7 +90,7 @@ TEST(Scene, BuiltinSceneMatchesTheShippedDefaultYaml) {
 }
 
 TEST(Scene, EveryShippedSceneLoadsAndBuilds) {
-  for (const char* name : {"default", "straight", "spin"}) {
+  for (const char* name : {"default", "straight", "spin", "water_demo"}) {
     SceneConfig scene;
     std::string why;
     const std::string path = std::string(WCH_SOURCE_DIR "/config/scenes/") + name + ".yaml";
@@ -244,4 +244,31 @@ TEST(Scene, MixedGroomFileBuildsWithTheDefaultsAndReportsWhatItSkipped) {
   EXPECT_TRUE(report.skipped.empty());
   EXPECT_EQ(report.strands_imported, model.strandCount());
   std::remove(path.c_str());
+}
+
+TEST(Scene, WaterSectionRoundTripsAndRefusesBadSpecsWithTheFieldNamed) {
+  SceneConfig scene = builtinScene();
+  EXPECT_FALSE(scene.waterActive());  // off unless asked for: nothing changes by default
+  std::string why;
+  ASSERT_TRUE(parseSceneYaml(
+      "water: {wicking_m2_s: 3e-4, sources: ['shower:x=0,y=0,z=0.5,r=0.2,rate_kg_s=0.05,"
+      "stop_s=6', 'bath:z=-0.2,start_s=10'], dryers: ['box:hx=0.3,hy=0.3,hz=0.3,start_s=6']}",
+      &scene, &why))
+      << why;
+  EXPECT_TRUE(scene.waterActive());
+  ASSERT_EQ(scene.water_sources.sources.size(), 2u);
+  EXPECT_DOUBLE_EQ(scene.water_sources.sources[0].rate_kg_s, 0.05);
+  EXPECT_EQ(scene.water_sources.sources[1].kind, WaterSource::Kind::kBath);
+  ASSERT_EQ(scene.water_sources.dryers.size(), 1u);
+  EXPECT_DOUBLE_EQ(scene.water.wicking_m2_s, 3e-4);
+  SceneConfig back;
+  ASSERT_TRUE(parseSceneYaml(sceneToYaml(scene), &back, &why)) << why << "\n" << sceneToYaml(scene);
+  EXPECT_EQ(sceneToYaml(back), sceneToYaml(scene));
+  expectRefused("water: {sources: ['shower:r=-1']}", "water.sources[0]: shower.r");
+  expectRefused("water: {sources: ['shower:x=0', 'bath:z=0,stop_s=0']}",
+                "water.sources[1]: bath.stop_s");
+  expectRefused("water: {dryers: ['box:hz=0']}", "water.dryers[0]: box.hz");
+  expectRefused("water: {dryers: 'box:hz=1'}", "water.dryers: must be a list");
+  expectRefused("water: {capacity_kg_per_m: -1}", "water.capacity_kg_per_m");
+  expectRefused("water: {drying: 1}", "water.drying: unknown key");
 }

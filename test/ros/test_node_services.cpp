@@ -14,7 +14,9 @@
 #include "wet_curly_hair/GetParameters.h"
 #include "wet_curly_hair/SetParameters.h"
 #include "wet_curly_hair/SetSaturation.h"
+#include "wet_curly_hair/SetWater.h"
 #include "wet_curly_hair/Status.h"
+#include "wet_curly_hair/WaterChange.h"
 #include "wet_curly_hair/io/hair_file.h"
 #include "wet_curly_hair/io/scene.h"
 
@@ -369,6 +371,54 @@ TEST_F(NodeServices, ResetPutsTheHairBackAndCountsIt) {
     EXPECT_FLOAT_EQ(b.saturation[b.strand_offsets[k]], root);
     EXPECT_FLOAT_EQ(b.saturation[b.strand_offsets[k + 1] - 1], tip);
   }
+}
+
+// ~set_water starts and stops sources and dryers (a bad spec is refused with its list index and
+// field, nothing changed); ~water_changes schedules the same; the status carries the water
+// totals, which balance. Last in the file: the water stage then keeps running.
+TEST_F(NodeServices, WaterSourcesStartAndStopAndEveryGramIsAccounted) {
+  ros::ServiceClient water =
+      nh_.serviceClient<wet_curly_hair::SetWater>("/wet_curly_hair/set_water");
+  Latest<wet_curly_hair::Status> status(nh_, "/wet_curly_hair/status");
+  wet_curly_hair::Status st;
+  ASSERT_TRUE(status.next(20.0, &st));
+  EXPECT_FALSE(st.water_active);  // off until asked for
+  EXPECT_EQ(st.water_added_kg, 0.0);
+  wet_curly_hair::SetWater bad;
+  bad.request.sources = {"shower:x=0,y=0,z=2,r=0.5,rate_kg_s=0.01", "shower:r=0"};
+  ASSERT_TRUE(wch_test::call(water, &bad));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_NE(bad.response.message.find("sources[1]: shower.r"), std::string::npos)
+      << bad.response.message;
+  EXPECT_EQ(bad.response.sources_active, 0u);
+  wet_curly_hair::SetWater on;  // the head is at z = 1.5: a shower over it
+  on.request.sources = {"shower:x=0,y=0,z=2.5,r=0.5,rate_kg_s=0.01"};
+  on.request.dryers = {"box:x=0,y=0,z=1.5,hx=0.5,hy=0.5,hz=0.5,rate_per_s=0.1"};
+  ASSERT_TRUE(wch_test::call(water, &on));
+  ASSERT_TRUE(on.response.success) << on.response.message;
+  EXPECT_EQ(on.response.sources_active, 1u);
+  EXPECT_EQ(on.response.dryers_active, 1u);
+  ASSERT_TRUE(status.waitFor(
+      20.0, [](const wet_curly_hair::Status& m) { return m.water_evaporated_kg > 0.0; }, &st));
+  EXPECT_TRUE(st.water_active);
+  EXPECT_GT(st.water_added_kg, 0.0);
+  EXPECT_GT(st.mean_saturation, 0.0);
+  EXPECT_NEAR(st.water_added_kg - st.water_removed_kg,
+              st.water_held_kg + st.water_dripped_kg + st.water_evaporated_kg,
+              1e-12 * st.water_added_kg);
+  wet_curly_hair::SetWater off;
+  off.request.clear = true;
+  ASSERT_TRUE(wch_test::call(water, &off));
+  EXPECT_TRUE(off.response.success);
+  EXPECT_EQ(off.response.sources_active, 0u);
+  ros::Publisher changes =
+      nh_.advertise<wet_curly_hair::WaterChange>("/wet_curly_hair/water_changes", 10, true);
+  wet_curly_hair::WaterChange change;  // stamp 0: before the next frame
+  change.dryers = {"box:x=0,y=0,z=1.5,hx=0.5,hy=0.5,hz=0.5"};
+  changes.publish(change);
+  EXPECT_TRUE(status.waitFor(20.0, [](const wet_curly_hair::Status& m) {
+    return m.water_dryers == 1 && m.water_sources == 0;
+  }));
 }
 
 /// Runs the node binary with extra arguments against the test's master; returns exit code and

@@ -491,3 +491,49 @@ TEST(OfflineRun, ObstacleFiguresOnThreadsEqualThoseOfTheFrames) {
   EXPECT_EQ(s.max_obstacle_penetration_m, worst);
   EXPECT_EQ(s.obstacle_contact_s, sum / touched);
 }
+
+// The water stage in a run: a shower then a dryer; the JSON's totals balance, the series follow
+// the water (rising under the shower, falling under the dryer), and a run without water keeps
+// its totals at zero.
+TEST(OfflineRun, WaterTotalsBalanceAndTheSeriesFollowTheWater) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 20;
+  scene.run.seconds = 1.0;
+  scene.motion.type = "still";
+  std::string why;
+  ASSERT_TRUE(
+      parseSceneYaml("water: {sources: ['shower:x=0,y=0,z=0.5,r=0.3,rate_kg_s=0.05,stop_s=0.5'], "
+                     "dryers: ['box:hx=1,hy=1,hz=1,rate_per_s=2,start_s=0.5']}",
+                     &scene, &why))
+      << why;
+  RunSummary s;
+  ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
+  EXPECT_TRUE(s.water);
+  const double initial = s.water_added_kg - 0.05 * 0.5;  // the scene's wet tips
+  EXPECT_GT(initial, 0.0);
+  EXPECT_NEAR(s.water_added_kg - s.water_removed_kg,
+              s.water_held_kg + s.water_dripped_kg + s.water_evaporated_kg,
+              1e-12 * s.water_added_kg);
+  ASSERT_EQ(s.mean_saturation.size(), s.time_s.size());
+  ASSERT_EQ(s.water_held_series_kg.size(), s.time_s.size());
+  ASSERT_EQ(s.mean_tip_height_m.size(), s.time_s.size());
+  ASSERT_EQ(s.clump_distance_series_m.size(), s.time_s.size());
+  const size_t half = s.time_s.size() / 2;  // t = 0.5 s
+  EXPECT_GT(s.water_held_series_kg[half], s.water_held_series_kg.front());
+  EXPECT_LT(s.water_held_series_kg.back(), s.water_held_series_kg[half]);
+  EXPECT_GT(s.mean_saturation[half], s.mean_saturation.front());
+  EXPECT_NE(std::find(s.measurements.begin(), s.measurements.end(), "water"), s.measurements.end());
+  const std::string json = s.toJson();
+  for (const char* key : {"\"water_added_kg\"", "\"water_held_kg\"", "\"water_dripped_kg\"",
+                          "\"water_evaporated_kg\"", "\"mean_saturation\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+
+  SceneConfig dry = builtinScene();
+  dry.groom.strands = 5;
+  dry.run.seconds = 0.1;
+  ASSERT_TRUE(runScene(dry, RunOptions(), &s, &why)) << why;
+  EXPECT_FALSE(s.water);
+  EXPECT_EQ(s.water_added_kg, 0.0);
+  EXPECT_TRUE(s.water_held_series_kg.empty());
+  EXPECT_EQ(s.mean_saturation.size(), s.time_s.size());
+}

@@ -88,5 +88,12 @@ measure_rc=$?
 check "bench_measurements runs (got $measure_rc)" "[ $measure_rc -eq 0 ]"
 check "bench_measurements reports the share of the stepping and the exact figures" \
   "grep -q '% of stepping (median)' $out/measure.txt && grep -q 'tangles .* against .* exact' $out/measure.txt"
+# The water stage's cost (bench/bench_water.cpp) runs and prints its share of the dynamics.
+water=$(tool_path bench_water "$build") || exit 1
+"$water" --strands 20 --frames 3 > "$out/water.txt" 2>&1
+water_rc=$?
+check "bench_water runs (got $water_rc)" "[ $water_rc -eq 0 ]"
+check "bench_water reports the water stage's share of the dynamics" \
+  "grep -q 'CPU: ' $out/water.txt && grep -q '% of the dynamics' $out/water.txt"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

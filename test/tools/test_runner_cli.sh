@@ -50,6 +50,23 @@ for args in "--motion wobble" "--seconds abc" "--strands 0" "--set solver.nope=1
   check "'$args' exits 2 (got $rc)" "[ $rc -eq 2 ]"
   check "'$args' says why" "[ -s $out/err ]"
 done
+# Water: repeatable --water-source and --dryer join the scene; the JSON carries the totals; a bad
+# spec exits 2 naming the flag and the field.
+"$run" --seconds 0.2 --strands 5 --particles 16 --motion still \
+  --water-source shower:x=0,y=0,z=0.5,r=0.3,rate_kg_s=0.02,stop_s=0.1 \
+  --water-source bath:z=-0.3 --dryer box:x=0,y=0,z=0,hx=0.5,hy=0.5,hz=0.5,start_s=0.1 \
+  --json "$out/w.json" > /dev/null 2>&1
+check "--water-source and --dryer run and the water balances" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/w.json')); b=d['water_added_kg']-d['water_removed_kg']-d['water_held_kg']-d['water_dripped_kg']-d['water_evaporated_kg']; sys.exit(0 if d['water'] and d['water_added_kg']>0.002 and d['water_evaporated_kg']>0 and abs(b)<1e-9 and len(d['mean_saturation'])==len(d['time_s']) else 1)\""
+"$run" --print-scene --water-source bath:z=-0.3 --dryer box:hx=0.2 > "$out/water.yaml"
+check "print-scene lists the water sources and dryers" "grep -q 'bath:z=-0.3' $out/water.yaml && grep -q 'box:x=0,y=0,z=0,hx=0.2' $out/water.yaml"
+for args in "--water-source shower:r=0" "--dryer box:hx=1,fan=2" "--water-source hose:x=1"; do
+  "$run" $args > /dev/null 2> "$out/err"
+  rc=$?
+  check "'$args' exits 2 (got $rc)" "[ $rc -eq 2 ]"
+  field=$(echo "$args" | sed -E 's/^--([a-z-]+) ([a-z]+):.*/\1/')
+  check "'$args' names the flag" "grep -q -- '--$field' $out/err"
+done
+check "a bad shower names its field" "\"$run\" --water-source shower:r=0 2>&1 | grep -q 'shower.r:'"
 "$run" --print-scene --curl-radius 0 > "$out/scene.yaml"
 check "print-scene applies overrides" "grep -q 'curl_radius_m: 0 ' $out/scene.yaml"
 echo "$pass passed, $fail failed"

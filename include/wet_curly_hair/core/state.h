@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "wet_curly_hair/core/model.h"
@@ -85,11 +86,47 @@ struct CohesionNodeGrid {
   void resize(size_t nodes, int particles);
 };
 
+/// Every kilogram of water the water stage (water.h) saw, totals since the state was made:
+/// added = held + dripped + evaporated + removed, to round-off.
+struct WaterLedger {
+  double added_kg = 0.0;    ///< from sources, and by commands that raised a saturation.
+  double removed_kg = 0.0;  ///< by commands that lowered a saturation.
+  double dripped_kg = 0.0;
+  double evaporated_kg = 0.0;
+  uint64_t drips = 0;  ///< particle-steps that dripped.
+};
+
+/// Scratch of the water stage, sized once by makeState.
+struct WaterScratch {
+  std::vector<double> strand;  ///< 3 per particle of the longest strand: capacities, solve.
+  std::vector<double> edge_m, downhill;  ///< per edge of the longest strand.
+  /// One cell of the exchange: its key, water and capacity sums, first strand, whether another
+  /// strand shares it (one struct, so that a particle's visit is one cache line).
+  struct Slot {
+    uint64_t key = ~uint64_t{0};
+    double water = 0.0, capacity = 0.0;
+    uint32_t strand = 0, mixed = 0;
+  };
+  /// The exchange's cells: an open-addressing table of at least 2 slots per particle, the slots
+  /// in use, and each particle's slot.
+  std::vector<Slot> slots;
+  std::vector<uint32_t> used_slots, cell_of;
+  /// Simulated time up to which the exchange has run (NaN: not yet), s.
+  double exchange_until_s = std::numeric_limits<double>::quiet_NaN();
+  Vec3List drip_points;  ///< where particles dripped in the last water step (world frame).
+  void resize(int particles, int max_strand_size);
+};
+
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
   Vec3List position;               ///< world frame, m.
   Vec3List velocity;               ///< world frame, m/s.
   std::vector<double> saturation;  ///< per particle, [0, 1].
+  /// Per particle, water held, kg: the saturation's source when the water stage runs (water.h);
+  /// unused (zero) otherwise.
+  std::vector<double> water_kg;
+  WaterLedger water_ledger;
+  WaterScratch water_scratch;
   /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
   /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
   Vec3List wet_position;

@@ -12,6 +12,7 @@
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/obstacles.h"
+#include "wet_curly_hair/core/water.h"
 
 namespace wet_curly_hair {
 namespace io {
@@ -69,6 +70,13 @@ struct SceneConfig {
   /// ("sphere:x=..,y=..,z=..,r=..", "box:...", "plane:..."; see AnalyticObstacle::parse).
   std::vector<AnalyticObstacle> obstacles;
   ObstacleMapConfig obstacle_map;
+  /// Water that moves (scene section `water`, docs/water.md): the material keys, and the
+  /// sources and dryers as spec strings in the lists `water.sources` ("shower:...", "bath:...")
+  /// and `water.dryers` ("box:...").
+  WaterConfig water;
+  WaterSources water_sources;
+  /// Whether the water stage runs: water.enabled, or any source or dryer.
+  bool waterActive() const { return water.enabled || !water_sources.empty(); }
   bool validate(std::string* why) const;
 };
 

@@ -29,13 +29,16 @@
 #include "wet_curly_hair/SaturationChange.h"
 #include "wet_curly_hair/SetParameters.h"
 #include "wet_curly_hair/SetSaturation.h"
+#include "wet_curly_hair/SetWater.h"
 #include "wet_curly_hair/Status.h"
 #include "wet_curly_hair/Strands.h"
+#include "wet_curly_hair/WaterChange.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/obstacles.h"
 #include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/core/state.h"
+#include "wet_curly_hair/core/water.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/ros/obstacle_field_builder.h"
 #include "wet_curly_hair/ros/ros_params.h"
@@ -79,6 +82,7 @@ class WetCurlyHairNode {
   void advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lookup);
   void resetHairLocked(const Pose& head_pose, const std::string& reason);
   void applyDueChangesLocked(int64_t t_ns);
+  void stepWaterLocked();
   void swapInFieldLocked();
   void maybeRebuildFieldLocked();
   Eigen::AlignedBox3d reachBoxLocked() const;
@@ -88,6 +92,8 @@ class WetCurlyHairNode {
   void fillStatusLocked(Status* status);
 
   bool onSetSaturation(SetSaturation::Request& req, SetSaturation::Response& res);
+  bool onSetWater(SetWater::Request& req, SetWater::Response& res);
+  void onWaterChange(const WaterChange::ConstPtr& msg);
   bool onSetParameters(SetParameters::Request& req, SetParameters::Response& res);
   bool onGetParameters(GetParameters::Request& req, GetParameters::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
@@ -120,7 +126,8 @@ class WetCurlyHairNode {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   ros::Publisher strands_pub_, status_pub_, markers_pub_;
-  ros::Subscriber octomap_sub_, saturation_sub_;
+  ros::Subscriber octomap_sub_, saturation_sub_, water_sub_;
+  ros::ServiceServer set_water_srv_;
   ros::ServiceServer set_saturation_srv_, set_parameters_srv_, get_parameters_srv_, reset_srv_,
       load_map_srv_;
   ros::Timer timer_;
@@ -150,6 +157,16 @@ class WetCurlyHairNode {
   uint32_t time_jumps_back_ = 0;
   uint64_t tf_lookups_ = 0, tf_fallbacks_ = 0;
   std::multimap<int64_t, SaturationCommand> pending_changes_;  ///< by stamp, ns
+  /// Water (docs/water.md): the sources and dryers in use (the scene's, then as ~set_water and
+  /// ~water_changes change them), whether the stage runs, scheduled changes by stamp (ns).
+  struct WaterCommand {
+    bool clear = false;
+    WaterSources add;
+  };
+  WaterSources water_sources_;
+  bool water_active_ = false;
+  std::multimap<int64_t, WaterCommand> pending_water_;
+  double water_step_s_ = 0.0;  ///< the water stage of the last frame, wall, s
   StepStats last_stats_;
   FieldInfo field_;
   Strands strands_msg_;  ///< reused storage

@@ -69,6 +69,8 @@ enum Measurement {
   kMeasureClumpDistance,    ///< clump_distance_m (last frame)
   kMeasureTangles,          ///< tangles, tangles_sim (last frame)
   kMeasureCurlShape,        ///< curl_radius_tip_m, curl_pitch_tip_m (last frame)
+  /// With the water stage on: water_held_series_kg, mean_tip_height_m, clump_distance_series_m
+  kMeasureWater,
   kMeasurementCount
 };
 const char* measurementName(Measurement m);
@@ -142,6 +144,21 @@ struct RunSummary {
   double max_strand_extension_start = 0.0, max_strand_extension_end = 0.0;
   double mean_strand_extension_start = 0.0, mean_strand_extension_end = 0.0;
   int saturation_changes = 0;  ///< RunOptions::saturation_events applied.
+  /// The water stage (SceneConfig::waterActive, docs/water.md): totals at the end, kg (the
+  /// scene's initial saturation and every command's change count as added, or as removed when
+  /// a command dried hair): added - removed = held + dripped + evaporated to round-off.
+  bool water = false;
+  double water_added_kg = 0.0, water_removed_kg = 0.0, water_held_kg = 0.0;
+  double water_dripped_kg = 0.0, water_evaporated_kg = 0.0;
+  uint64_t water_drips = 0;   ///< particle-steps that dripped.
+  double water_wall_s = 0.0;  ///< wall seconds of the water stage (not in wall_s).
+  /// Per series frame (as time_s): the mean saturation over the particles (every run); with the
+  /// water stage on also the held water (kg), the mean height of the strand tips (world z, m) and
+  /// the clump distance (m, as clump_distance_m).
+  std::vector<double> mean_saturation;
+  std::vector<double> water_held_series_kg;
+  std::vector<double> mean_tip_height_m;
+  std::vector<double> clump_distance_series_m;
   /// Memory (/proc/self/status, kB): resident set before the model is built and at the end,
   /// and the peak (VmHWM) at the end.
   long rss_start_kb = 0, rss_end_kb = 0, rss_peak_kb = 0;
