@@ -35,6 +35,7 @@ set terminal pngcairo size 900,800 font ",11"
 set output "$out/water_demo_chart.png"
 set multiplot layout 3,1 title "Water demo: shower 2-7 s, dryer 10-22 s (150 strands, still head)"
 set xrange [0:22]
+set lmargin 10
 set grid
 set object 1 rect from 2, graph 0 to 7, graph 1 fc rgb "#cce0ff" fs solid 0.5 noborder behind
 set object 2 rect from 10, graph 0 to 22, graph 1 fc rgb "#ffe0c0" fs solid 0.5 noborder behind
