@@ -56,6 +56,8 @@ std::string RunSummary::toJson() const {
       .add("curl_radius_tip_m", curl_radius_tip_m)
       .add("curl_pitch_tip_m", curl_pitch_tip_m)
       .add("obstacle_contact_s", obstacle_contact_s)
+      .add("obstacle_contact_strand_s", obstacle_contact_strand_s)
+      .add("obstacle_contact_strands", obstacle_contact_strands)
       .add("max_strand_extension", max_strand_extension)
       .add("adhesion_active", static_cast<unsigned long long>(adhesion_active))
       .add("obstacle_contacts", static_cast<unsigned long long>(obstacle_contacts))
@@ -440,6 +442,8 @@ class FrameMeasurements {
     for (double c : contact_time_)
       if (c > 0.0) contact_sum += c, ++touched;
     s->obstacle_contact_s = touched ? contact_sum / touched : 0.0;
+    s->obstacle_contact_strand_s = contact_sum;
+    s->obstacle_contact_strands = touched;
     if (recorded_frames_ > 0) s->mean_strain /= static_cast<double>(recorded_frames_);
     for (int m = 0; m < kMeasurementCount; ++m) {
       if (!ran_[m]) continue;

@@ -490,6 +490,8 @@ TEST(OfflineRun, ObstacleFiguresOnThreadsEqualThoseOfTheFrames) {
   ASSERT_GT(worst, 0.0);
   EXPECT_EQ(s.max_obstacle_penetration_m, worst);
   EXPECT_EQ(s.obstacle_contact_s, sum / touched);
+  EXPECT_EQ(s.obstacle_contact_strand_s, sum);
+  EXPECT_EQ(s.obstacle_contact_strands, touched);
 }
 
 // The water stage in a run: a shower then a dryer; the JSON's totals balance, the series follow

@@ -114,8 +114,10 @@ struct RunSummary {
   int tangles_sim = 0;    ///< final frame, on the simulated positions (not p^w).
   double curl_radius_tip_m = 0.0;  ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
-  double obstacle_contact_s = 0.0;    ///< mean over strands that touched: time within the band.
-  double max_strand_extension = 0.0;  ///< largest arc length / rest length - 1 of any strand.
+  double obstacle_contact_s = 0.0;  ///< mean over strands that touched: time within the band.
+  double obstacle_contact_strand_s = 0.0;  ///< the same summed over the strands (strand-seconds).
+  int obstacle_contact_strands = 0;        ///< strands that were ever within the band.
+  double max_strand_extension = 0.0;       ///< largest arc length / rest length - 1 of any strand.
   uint64_t adhesion_active = 0;
   uint64_t obstacle_contacts = 0;
   uint64_t cohesion_particles = 0;          ///< summed over steps.
