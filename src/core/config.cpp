@@ -168,6 +168,17 @@ bool ObstacleCollisionConfig::validate(const std::string& p, std::string* why) c
          finiteInRange(p + "margin_m", margin_m, 0.0, 1.0, why);
 }
 
+bool HairContactConfig::validate(const std::string& p, std::string* why) const {
+  return finiteInRange(p + "radius_m", radius_m, 1e-5, 0.1, why) &&
+         finiteInRange(p + "sparsity", sparsity, 1e-3, 1.0, why) &&
+         finiteInRange(p + "stiffness_n_per_m3", stiffness_n_per_m3, 0.0, 1e12, why) &&
+         finiteInRange(p + "damping_n_s_per_m3", damping_n_s_per_m3, 0.0, 1e9, why) &&
+         finiteInRange(p + "friction", friction, 0.0, 10.0, why) &&
+         finiteInRange(p + "ramp_time_s", ramp_time_s, 0.0, 10.0, why) &&
+         finiteInRange(p + "taper_time_s", taper_time_s, 0.0, 10.0, why) &&
+         finiteInRange(p + "skin_m", skin_m, 1e-6, 0.1, why);
+}
+
 bool SolverConfig::validate(const std::string& p, std::string* why) const {
   const bool parts_ok =
       stretch.validate(p + "stretch.", why) && bend.validate(p + "bend.", why) &&
@@ -175,6 +186,7 @@ bool SolverConfig::validate(const std::string& p, std::string* why) const {
       integrator.validate(p + "integrator.", why) && curl.validate(p + "curl.", why) &&
       cohesion.validate(p + "cohesion.", why) && adhesion.validate(p + "adhesion.", why) &&
       stiffness.validate(p + "stiffness.", why) && obstacle.validate(p + "obstacle.", why) &&
+      hair_contact.validate(p + "hair_contact.", why) &&
       finiteVec(p + "gravity_m_s2", gravity_m_s2, why) &&
       finiteInRange(p + "gravity_m_s2", gravity_m_s2.norm(), 0.0, 1000.0, why);
   if (!parts_ok) return false;

@@ -249,7 +249,7 @@ void forEachBoxCell(const float* b, double c, Fn fn) {
 /// and its kind: no segment (a tip, or a non-finite end: never touches anything), entered in
 /// the grid, or long.
 void segmentBoxes(const HairModel& model, const Vec3List& points, double grow, double c,
-                  MetricScratch* g) {
+                  MetricScratch* g, const Vec3List* before = nullptr) {
   const size_t n = points.size();
   if (g->box.size() < 6 * n) g->box.resize(6 * n);
   g->segment_kind.assign(n, kNoSegment);
@@ -259,7 +259,13 @@ void segmentBoxes(const HairModel& model, const Vec3List& points, double grow, d
     for (int i = model.strandBegin(s); i + 1 < end; ++i) {
       if (!points[i].allFinite() || !points[i + 1].allFinite()) continue;
       float* b = &g->box[6 * static_cast<size_t>(i)];
-      const Vec3 lo = points[i].cwiseMin(points[i + 1]), hi = points[i].cwiseMax(points[i + 1]);
+      Vec3 lo = points[i].cwiseMin(points[i + 1]), hi = points[i].cwiseMax(points[i + 1]);
+      if (before) {  // the box swept from `before` to `points`
+        const Vec3List& q = *before;
+        if (!q[i].allFinite() || !q[i + 1].allFinite()) continue;
+        lo = lo.cwiseMin(q[i]).cwiseMin(q[i + 1]);
+        hi = hi.cwiseMax(q[i]).cwiseMax(q[i + 1]);
+      }
       bool long_segment = false;
       for (int a = 0; a < 3; ++a) {
         b[a] = floatBelow(lo[a] - grow);
@@ -337,12 +343,11 @@ inline bool touching(const Vec3List& p, uint32_t i, uint32_t j, double contact) 
   return segmentDistance(p[i], p[i + 1], p[j], p[j + 1]) < contact;
 }
 
-/// Touching pairs with a long segment (each long segment against every segment of another
-/// strand, a pair of long segments once), each counted weight(strand) + weight(other strand)
-/// times.
-template <typename Weight>
-int64_t longSegmentPairs(const HairModel& model, const Vec3List& points, double contact,
-                         const MetricScratch& g, Weight weight) {
+/// Pairs with a long segment for which pair(i, j) holds (each long segment against every segment
+/// of another strand, a pair of long segments once), each counted weight(strand) +
+/// weight(other strand) times.
+template <typename Pair, typename Weight>
+int64_t longSegmentPairs(const HairModel& model, Pair pair, const MetricScratch& g, Weight weight) {
   int64_t count = 0;
   for (uint32_t a : g.long_segments) {
     const float* ba = &g.box[6 * static_cast<size_t>(a)];
@@ -355,7 +360,7 @@ int64_t longSegmentPairs(const HairModel& model, const Vec3List& points, double 
         const uint8_t kind = g.segment_kind[j];
         if (kind == kNoSegment || (kind == kLongSegment && static_cast<uint32_t>(j) < a)) continue;
         if (boxesOverlap(ba, &g.box[6 * static_cast<size_t>(j)]) &&
-            touching(points, a, static_cast<uint32_t>(j), contact))
+            pair(a, static_cast<uint32_t>(j)))
           count += weight(sa) + weight(s);
       }
     }
@@ -363,8 +368,9 @@ int64_t longSegmentPairs(const HairModel& model, const Vec3List& points, double 
   return count;
 }
 
-/// Every touching pair of grid segments once: the pairs within each bucket.
-int64_t gridPairs(const Vec3List& points, double contact, const MetricScratch& g, int threads) {
+/// Every pair of grid segments for which pair(i, j) holds, once: the pairs within each bucket.
+template <typename Pair>
+int64_t gridPairs(Pair pair, const MetricScratch& g, int threads) {
   const double c = g.cell_m;
   const int64_t buckets = static_cast<int64_t>(g.bucket_start.size()) - 1;
   return parallelSum(threads, 256, buckets, [&](int64_t b) {
@@ -377,8 +383,7 @@ int64_t gridPairs(const Vec3List& points, double contact, const MetricScratch& g
       for (uint32_t f = e + 1; f < hi; ++f) {
         const float* bj = &g.entry_box[6 * static_cast<size_t>(f)];
         if (!boxesOverlap(bi, bj) || g.entry_key[f] != key || g.entry_strand[f] == strand) continue;
-        if (overlapCornerKey(bi, bj, c) == key && touching(points, i, g.entry_item[f], contact))
-          ++count;
+        if (overlapCornerKey(bi, bj, c) == key && pair(i, g.entry_item[f])) ++count;
       }
     }
     return count;
@@ -427,18 +432,66 @@ int tangleCount(const HairModel& model, const Vec3List& points, double strand_ra
   segmentBoxes(model, points, grow, g->cell_m, g);
   const int stride = std::max(1, strand_stride);
   buildSegmentGrid(model, stride, g);
+  auto touches = [&](uint32_t i, uint32_t j) { return touching(points, i, j, contact); };
   if (stride == 1)
-    return static_cast<int>(gridPairs(points, contact, *g, threads) +
-                            longSegmentPairs(model, points, contact, *g, [](int) { return 1; }) /
-                                2);
+    return static_cast<int>(gridPairs(touches, *g, threads) +
+                            longSegmentPairs(model, touches, *g, [](int) { return 1; }) / 2);
   // Sum of the sampled strands' touching pairs (a pair of two sampled strands twice), scaled by
   // strands / (2 sampled strands).
   const int strands = model.strandCount();
   const int sampled = (strands + stride - 1) / stride;
   const int64_t degrees =
       sampledGridPairs(model, points, contact, *g, threads) +
-      longSegmentPairs(model, points, contact, *g, [stride](int s) { return s % stride == 0; });
+      longSegmentPairs(model, touches, *g, [stride](int s) { return s % stride == 0; });
   return static_cast<int>(std::lround(double(strands) * double(degrees) / (2.0 * sampled)));
+}
+
+namespace {
+
+/// Whether segments i and j (root-side particles, different strands), moving linearly from
+/// `before` to `after`, pass through each other: the signed volume (a1 - a0) x (b1 - b0) .
+/// (b0 - a0), cubic in time, changes sign, and where it vanishes (bisection) the now coplanar
+/// segments meet. The lower index goes first, so the answer does not depend on the order.
+bool crossed(const Vec3List& before, const Vec3List& after, uint32_t i, uint32_t j) {
+  if (j < i) std::swap(i, j);
+  auto at = [&](double t, uint32_t k) { return Vec3(before[k] + t * (after[k] - before[k])); };
+  auto volume = [&](double t) {
+    const Vec3 a0 = at(t, i), b0 = at(t, j);
+    return (at(t, i + 1) - a0).cross(at(t, j + 1) - b0).dot(b0 - a0);
+  };
+  const double v0 = volume(0.0), v1 = volume(1.0);
+  if (!(v0 * v1 < 0.0)) return false;
+  double lo = 0.0, hi = 1.0, vlo = v0;
+  for (int k = 0; k < 60; ++k) {
+    const double mid = 0.5 * (lo + hi), vm = volume(mid);
+    if (vm == 0.0) lo = hi = mid;
+    if (lo == hi) break;
+    if ((vm < 0.0) == (vlo < 0.0)) {
+      lo = mid;
+      vlo = vm;
+    } else {
+      hi = mid;
+    }
+  }
+  const double t = 0.5 * (lo + hi);
+  const Vec3 a0 = at(t, i), a1 = at(t, i + 1), b0 = at(t, j), b1 = at(t, j + 1);
+  // Coplanar to the bisection's precision: they meet when their distance is round-off small.
+  const double tolerance = kCrossingTolerance * ((a1 - a0).norm() + (b1 - b0).norm());
+  return segmentDistance(a0, a1, b0, b1) <= tolerance;
+}
+
+}  // namespace
+
+int64_t crossingCount(const HairModel& model, const Vec3List& before, const Vec3List& after,
+                      MetricScratch* g, int threads) {
+  // Boxes swept over the frame, grown a little so that rounding never hides a pair.
+  const double c = meanEdge(model, after);
+  g->cell_m = c > 0.0 ? c : 1.0;
+  segmentBoxes(model, after, 1e-9 * g->cell_m, g->cell_m, g, &before);
+  buildSegmentGrid(model, 1, g);
+  auto pass = [&](uint32_t i, uint32_t j) { return crossed(before, after, i, j); };
+  return gridPairs(pass, *g, threads) +
+         longSegmentPairs(model, pass, *g, [](int) { return 1; }) / 2;
 }
 
 LengthStats lengthStats(const HairModel& model, const Vec3List& points, MetricScratch* scratch,

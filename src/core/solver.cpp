@@ -7,6 +7,7 @@
 #include "solver_internal.h"
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/hair_contact.h"
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/springs.h"
@@ -53,7 +54,8 @@ const char* stageName(int stage) {
                                                   "strain_limit",
                                                   "repair",
                                                   "cohesion",
-                                                  "cohesion_forces"};
+                                                  "cohesion_forces",
+                                                  "hair_contact"};
   return stage >= 0 && stage < kStageCount ? kNames[stage] : "unknown";
 }
 
@@ -72,6 +74,10 @@ void StepStats::accumulate(const StepStats& o) {
   cohesion_particles += o.cohesion_particles;
   wet_strands += o.wet_strands;
   strands_near_obstacles += o.strands_near_obstacles;
+  hair_contacts += o.hair_contacts;
+  hair_contact_strands += o.hair_contact_strands;
+  hair_contact_list_builds += o.hair_contact_list_builds;
+  hair_contact_listed_pairs = std::max(hair_contact_listed_pairs, o.hair_contact_listed_pairs);
   for (int k = 0; k < kStageCount; ++k) {
     stage_particles[k] += o.stage_particles[k];
     stage_cpu_s[k] += o.stage_cpu_s[k];
@@ -267,38 +273,15 @@ double stepBlock(int width, const HairModel& model, const SolverConfig& config,
                                        k_begin, k_end, nsub, h, state, scratch, stats);
 }
 
-/// The force-based cohesion baselines couple strands: substeps outside, strands inside, the
-/// cross-strand forces evaluated at every substep (one strand at a time).
-void advanceWithCohesionForces(const HairModel& model, const SolverConfig& config,
-                               const SolverPlan& plan, const StepInputs& inputs, int nsub, double h,
-                               int threads, HairState* state, StepStats* per_thread,
-                               StepStats* local) {
-  const int strands = model.strandCount();
-  for (int k = 0; k < nsub; ++k) {
-    const double t0 = inputs.clock ? inputs.clock() : 0.0;
-    computeCohesionForces(model, config.cohesion, state);
-    local->stage_particles[kStageCohesionForces] += model.particleCount();
-    if (inputs.clock) local->stage_cpu_s[kStageCohesionForces] += inputs.clock() - t0;
-    detail::parallelFor(threads, detail::Schedule::kDynamic, 8, strands, [&](int s) {
-      const int t = detail::threadIndex();
-      StrandFlags flags = strandFlags(model, config, inputs, s, *state);
-      flags.external_force = true;
-      StepStats& ts = per_thread[t];
-      const double strain = stepBlock(1, model, config, plan, inputs, s, 1, &flags, k, k + 1, nsub,
-                                      h, state, &state->scratch[t], &ts);
-      ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
-    });
-  }
-}
-
-/// Strands couple only through per-step outputs: each block of strands runs all its substeps at
-/// once, while its particles stay in cache; blocks are shared among the threads. Blocks of
-/// plan.lane_width strands of equal size run in SIMD lanes (fixed by strand index, so the result
-/// does not depend on the thread count); a lone strand, a block of unequal sizes, or every strand
-/// without lanes runs one at a time.
+/// Strands couple only through per-step outputs: each block of strands runs substeps
+/// [k_begin, k_end) at once, while its particles stay in cache; blocks are shared among the
+/// threads. Blocks of plan.lane_width strands of equal size run in SIMD lanes (fixed by strand
+/// index, so the result does not depend on the thread count); a lone strand, a block of unequal
+/// sizes, or every strand without lanes runs one at a time. `external` (per strand, or null):
+/// state->external_force holds cross-strand forces for that strand.
 void advanceStrands(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
-                    const StepInputs& inputs, int nsub, double h, int threads, HairState* state,
-                    StepStats* per_thread) {
+                    const StepInputs& inputs, int k_begin, int k_end, int nsub, double h,
+                    int threads, const uint8_t* external, HairState* state, StepStats* per_thread) {
   const int strands = model.strandCount();
   const int width = plan.lanes ? plan.lane_width : 1;
   const int blocks = (strands + width - 1) / width;
@@ -312,13 +295,15 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
     auto run = [&](int block_width, int first_strand, int active) {
       for (int l = 0; l < active; ++l) {
         flags[l] = strandFlags(model, config, inputs, first_strand + l, *state);
+        flags[l].external_force = external && external[first_strand + l];
+        if (k_begin > 0) continue;  // counted once per step
         ts.wet_strands += flags[l].wet;
         ts.strands_near_obstacles += flags[l].near_obstacle;
       }
       std::fill(flags + active, flags + block_width, flags[active - 1]);  // the padding lanes
       const double strain =
-          stepBlock(block_width, model, config, plan, inputs, first_strand, active, flags, 0, nsub,
-                    nsub, h, state, &state->scratch[t], &ts);
+          stepBlock(block_width, model, config, plan, inputs, first_strand, active, flags, k_begin,
+                    k_end, nsub, h, state, &state->scratch[t], &ts);
       ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
     };
     // A partial last block of two or more runs in lanes (the strand count need not be a
@@ -332,6 +317,67 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
       for (int s = first; s < std::min(strands, first + width); ++s) run(1, s, 1);
     }
   });
+}
+
+/// Cross-strand forces of one substep into state->external_force: the force-based cohesion
+/// baselines (lin/kim) and hair-hair contact. Returns the per-strand flags of who has one
+/// (null: every strand, the baselines).
+const uint8_t* crossStrandForces(const HairModel& model, const SolverConfig& config,
+                                 const SolverPlan& plan, const StepInputs& inputs, double s0,
+                                 double h, int threads, HairState* state, StepStats* local) {
+  double t0 = inputs.clock ? inputs.clock() : 0.0;
+  if (plan.force_cohesion) {
+    computeCohesionForces(model, config.cohesion, state);
+    local->stage_particles[kStageCohesionForces] += model.particleCount();
+    if (inputs.clock) {
+      const double now = inputs.clock();
+      local->stage_cpu_s[kStageCohesionForces] += now - t0;
+      t0 = now;
+    }
+  } else {
+    std::fill(state->external_force.begin(), state->external_force.end(), Vec3::Zero());
+  }
+  if (!config.hair_contact.enabled) return nullptr;
+  HairContactState& contact = state->hair_contact;
+  const uint64_t builds = contact.list_builds;
+  const Pose head = interpolate(inputs.head_start, inputs.head_end, s0);
+  local->hair_contacts =
+      computeHairContactForces(model, config.hair_contact, h, head, threads, state);
+  local->hair_contact_list_builds += contact.list_builds - builds;
+  local->hair_contact_listed_pairs = contact.listed_pairs;
+  local->stage_particles[kStageHairContact] += contact.sphere_particle.size();
+  uint64_t strands = 0;
+  for (uint8_t touching : contact.strand_touching) strands += touching;
+  local->hair_contact_strands = strands;
+  if (inputs.clock) local->stage_cpu_s[kStageHairContact] += inputs.clock() - t0;
+  return plan.force_cohesion ? nullptr : contact.strand_touching.data();
+}
+
+/// Cross-strand forces couple the strands: substeps outside, strands inside, the forces
+/// evaluated at every substep. The force-based baselines run one strand at a time (their
+/// reference results); hair contact alone keeps the SIMD lanes.
+void advanceCoupled(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
+                    const StepInputs& inputs, int nsub, double h, int threads, HairState* state,
+                    StepStats* per_thread, StepStats* local) {
+  const int strands = model.strandCount();
+  for (int k = 0; k < nsub; ++k) {
+    const uint8_t* external =
+        crossStrandForces(model, config, plan, inputs, double(k) / nsub, h, threads, state, local);
+    if (!plan.force_cohesion) {
+      advanceStrands(model, config, plan, inputs, k, k + 1, nsub, h, threads, external, state,
+                     per_thread);
+      continue;
+    }
+    detail::parallelFor(threads, detail::Schedule::kDynamic, 8, strands, [&](int s) {
+      const int t = detail::threadIndex();
+      StrandFlags flags = strandFlags(model, config, inputs, s, *state);
+      flags.external_force = true;
+      StepStats& ts = per_thread[t];
+      const double strain = stepBlock(1, model, config, plan, inputs, s, 1, &flags, k, k + 1, nsub,
+                                      h, state, &state->scratch[t], &ts);
+      ts.max_strain_before_limit = std::max(ts.max_strain_before_limit, strain);
+    });
+  }
 }
 
 /// Detects, repairs and counts numerical trouble strand by strand (a non-finite value, or a
@@ -390,10 +436,10 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   // Per-thread counters, summed in thread order afterwards (integers and maxima: the sums do not
   // depend on which thread ran which strand). On the stack: a step allocates nothing.
   StepStats per_thread[kMaxSolverThreads];
-  if (plan.force_cohesion)
-    advanceWithCohesionForces(model, config, plan, in, nsub, h, threads, state, per_thread, &local);
+  if (plan.force_cohesion || config.hair_contact.enabled)
+    advanceCoupled(model, config, plan, in, nsub, h, threads, state, per_thread, &local);
   else
-    advanceStrands(model, config, plan, in, nsub, h, threads, state, per_thread);
+    advanceStrands(model, config, plan, in, 0, nsub, nsub, h, threads, nullptr, state, per_thread);
   for (int t = 0; t < threads; ++t) local.accumulate(per_thread[t]);
   double lap = in.clock ? in.clock() : 0.0;
   repairStrands(model, config, in, state, &local);

@@ -1,5 +1,6 @@
 #include "wet_curly_hair/core/state.h"
 
+#include <algorithm>
 #include <limits>
 
 #include "wet_curly_hair/core/cohesion_grid.h"
@@ -81,6 +82,9 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
   }
   state->last_good_position = state->position;
   state->last_good_velocity = state->velocity;
+  // Hair contact starts over: no pair engaged, the pair list rebuilt at the next substep.
+  std::fill(state->hair_contact.engagement.begin(), state->hair_contact.engagement.end(), 0.0);
+  state->hair_contact.invalidate();
 }
 
 HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& head_twist) {

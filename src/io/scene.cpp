@@ -99,6 +99,34 @@ void addVec(std::vector<ParamRef>* t, const std::string& name, Vec3* v, const st
 namespace {
 
 /// The groom and groom_file rows of parameterTable.
+/// solver.hair_contact.* (hair-hair contact, hair_contact.h).
+void addHairContactParameters(HairContactConfig* hc_config, std::vector<ParamRef>* table) {
+  using T = ParamRef::Type;
+  std::vector<ParamRef>& t = *table;
+  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kDouble, f, doc, rebuild});
+  };
+  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
+    t.push_back({n, T::kBool, f, doc, rebuild});
+  };
+  HairContactConfig& hc = *hc_config;
+  b("solver.hair_contact.enabled", &hc.enabled, "hair-hair penalty contact (Iben §2.8)", false);
+  d("solver.hair_contact.radius_m", &hc.radius_m, "collision sphere radius r (contact at 2 r), m",
+    false);
+  d("solver.hair_contact.sparsity", &hc.sparsity, "Iben's pruning s: spheres >= s 2 r apart",
+    false);
+  d("solver.hair_contact.stiffness_n_per_m3", &hc.stiffness_n_per_m3,
+    "K: a sphere pair gets K l_i l_j, N/m per m of each strand", false);
+  d("solver.hair_contact.damping_n_s_per_m3", &hc.damping_n_s_per_m3,
+    "D: a sphere pair gets D l_i l_j, N s/m per m of each strand", false);
+  d("solver.hair_contact.friction", &hc.friction, "Coulomb friction between strands", false);
+  d("solver.hair_contact.ramp_time_s", &hc.ramp_time_s, "stiffness ramp on first contact, s",
+    false);
+  d("solver.hair_contact.taper_time_s", &hc.taper_time_s, "stiffness taper after release, s",
+    false);
+  d("solver.hair_contact.skin_m", &hc.skin_m, "Verlet list skin, m", false);
+}
+
 void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   using T = ParamRef::Type;
   std::vector<ParamRef>& t = *table;
@@ -276,6 +304,7 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.obstacle.offset_m", &c.obstacle.offset_m, "obstacle collision offset, m", false);
   d("solver.obstacle.friction", &c.obstacle.friction, "obstacle Coulomb friction", false);
   d("solver.obstacle.margin_m", &c.obstacle.margin_m, "obstacle reach margin, m", false);
+  addHairContactParameters(&c.hair_contact, &t);
   HeadMotionConfig& m = s->motion;
   str("motion.type", &m.type, "still, spin, nod, shake, teleport, linear", false);
   d("motion.rate_hz", &m.rate_hz, "spin rate, rev/s", false);

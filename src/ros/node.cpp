@@ -354,8 +354,20 @@ void WetCurlyHairNode::advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lo
   head_pose_ = end;
   sim_ns_ = t_end_ns;
   ++step_;
+  countCrossingsLocked();
   publishStrandsLocked();
   maybeRebuildFieldLocked();
+}
+
+void WetCurlyHairNode::countCrossingsLocked() {
+  if (!scene_.solver.hair_contact.enabled) {
+    previous_position_.clear();
+    return;
+  }
+  if (previous_position_.size() == state_.position.size())
+    crossings_ += crossingCount(model_, previous_position_, state_.position, &crossing_scratch_,
+                                scene_.solver.integrator.resolvedThreads());
+  previous_position_ = state_.position;
 }
 
 void WetCurlyHairNode::resetHairLocked(const Pose& head_pose, const std::string& reason) {
@@ -373,6 +385,8 @@ void WetCurlyHairNode::resetHairLocked(const Pose& head_pose, const std::string&
         std::max(reach_radius_m_, model_.rest_position_head[model_.strandBegin(s)].norm() +
                                       model_.strand_length_m[s]);
   last_stats_ = StepStats();
+  previous_position_.clear();
+  crossings_ = 0;
   step_ = 0;
   ++reset_count_;
   last_reset_reason_ = reason;
@@ -482,6 +496,9 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->obstacle_contacts = last_stats_.obstacle_contacts;
   s->adhesion_active = last_stats_.adhesion_active;
   s->cohesion_particles = last_stats_.cohesion_particles;
+  s->hair_contacts = last_stats_.hair_contacts;
+  s->hair_contact_strands = last_stats_.hair_contact_strands;
+  s->crossings = scene_.solver.hair_contact.enabled ? crossings_ : -1;
   s->stage_names.clear();
   s->stage_times_s.clear();
   s->stage_particles.clear();

@@ -53,6 +53,12 @@ std::string RunSummary::toJson() const {
       .add("tangles", tangles)
       .add("max_tangles", max_tangles)
       .add("tangles_sim", tangles_sim)
+      .add("crossings", crossings)
+      .add("max_crossings_per_frame", max_crossings_per_frame)
+      .add("hair_contacts", hair_contacts)
+      .add("hair_contact_strands_max", hair_contact_strands_max)
+      .add("hair_contact_list_builds", hair_contact_list_builds)
+      .add("hair_contact_listed_pairs_max", hair_contact_listed_pairs_max)
       .add("curl_radius_tip_m", curl_radius_tip_m)
       .add("curl_pitch_tip_m", curl_pitch_tip_m)
       .add("obstacle_contact_s", obstacle_contact_s)
@@ -128,7 +134,7 @@ std::string RunSummary::toJson() const {
 const char* measurementName(Measurement m) {
   static const char* const kNames[kMeasurementCount] = {
       "rigid_motion",  "energy",         "strain",  "head_penetration", "obstacles", "jitter",
-      "tangle_series", "clump_distance", "tangles", "curl_shape",       "water"};
+      "tangle_series", "clump_distance", "tangles", "curl_shape",       "water",     "crossings"};
   return m >= 0 && m < kMeasurementCount ? kNames[m] : "";
 }
 
@@ -381,6 +387,7 @@ class FrameMeasurements {
     });
     timed(kMeasureObstacles, [&] { measureObstacles(f, *state, s); });
     timed(kMeasureJitter, [&] { measureJitter(f, *state, pose); });
+    if (measureCrossings()) timed(kMeasureCrossings, [&] { recordCrossings(f, *state, s); });
     if (options_.tangle_series && f % options_.tangle_series_stride == 0) {
       timed(kMeasureTangleSeries, [&] {
         s->max_tangles = std::max(
@@ -388,6 +395,23 @@ class FrameMeasurements {
                                         &scratch_, threads_, sample_stride_));
       });
     }
+  }
+
+  bool measureCrossings() const {
+    return options_.crossings_always || (options_.crossings && scene_.solver.hair_contact.enabled);
+  }
+
+  /// Crossings between the last frame and this one (simulated positions).
+  void recordCrossings(long f, const HairState& state, RunSummary* s) {
+    if (f == 0) {
+      s->crossings = s->max_crossings_per_frame = 0;
+    } else {
+      const int64_t n =
+          crossingCount(model_, previous_position_, state.position, &scratch_, threads_);
+      s->crossings += n;
+      s->max_crossings_per_frame = std::max<long long>(s->max_crossings_per_frame, n);
+    }
+    previous_position_ = state.position;
   }
 
   /// The water series of one frame: held water, mean tip height, clump distance.
@@ -544,6 +568,7 @@ class FrameMeasurements {
   const int threads_;
   const int sample_stride_;
   Vec3List out_prev2_, out_prev1_;
+  Vec3List previous_position_;  ///< the last frame's simulated positions (crossings)
   double jitter_sum_ = 0.0;
   long jitter_count_ = 0;
   std::vector<double> contact_time_;
@@ -568,6 +593,12 @@ void addStepStats(const StepStats& stats, RunSummary* s) {
   s->adhesion_active += stats.adhesion_active;
   s->obstacle_contacts += stats.obstacle_contacts;
   s->cohesion_particles += stats.cohesion_particles;
+  s->hair_contacts = stats.hair_contacts;
+  s->hair_contact_strands_max =
+      std::max<unsigned long long>(s->hair_contact_strands_max, stats.hair_contact_strands);
+  s->hair_contact_list_builds += stats.hair_contact_list_builds;
+  s->hair_contact_listed_pairs_max = std::max<unsigned long long>(s->hair_contact_listed_pairs_max,
+                                                                  stats.hair_contact_listed_pairs);
 }
 
 /// Wall time of the steps: the total and the real-time factor per rtf_window_s of simulated time.

@@ -26,7 +26,8 @@ const char* kUsage =
     "                          [--sdf-resolution M] [--integrator NAME] [--substep S]\n"
     "                          [--threads N] [--no-stage-timing] [--no-measure]\n"
     "                          [--tangle-series N] [--no-tangles] [--no-clump-distance]\n"
-    "                          [--sample-strands N]\n"
+    "                          [--sample-strands N] [--hair-contact on|off]\n"
+    "                          [--crossings] [--no-crossings]\n"
     "                          [--saturation-at T,ROOT,TIP]... [--series-stride N] [--rtf-window "
     "S]\n"
     "                          [--water-source shower:x=..,y=..,z=..,r=..,rate_kg_s=..,start_s=..,"
@@ -183,9 +184,14 @@ Parsed parseRunFlag(Arguments* args, CommandLine* cl, std::string* why) {
   }
   for (const auto& [flag, field] : {std::pair<const char*, bool*>{"--no-measure", &options.measure},
                                     {"--no-clump-distance", &options.clump_distance},
-                                    {"--no-tangles", &options.tangles}}) {
+                                    {"--no-tangles", &options.tangles},
+                                    {"--no-crossings", &options.crossings}}) {
     if (a != flag) continue;
     *field = false;
+    return Parsed::kOk;
+  }
+  if (a == "--crossings") {
+    options.crossings_always = true;
     return Parsed::kOk;
   }
   if (a == "--print-scene") {
@@ -223,6 +229,15 @@ Parsed parseSceneFlag(Arguments* args, CommandLine* cl, std::string* why) {
     const bool ok = args->value(&v, why);
     cl->overrides.emplace_back(key, v);
     return result(ok);
+  }
+  if (a == "--hair-contact") {
+    if (!args->value(&v, why)) return Parsed::kBad;
+    if (v != "on" && v != "off") {
+      *why = "--hair-contact: '" + v + "' is not on or off";
+      return Parsed::kBad;
+    }
+    cl->overrides.emplace_back("solver.hair_contact.enabled", v == "on" ? "true" : "false");
+    return Parsed::kOk;
   }
   if (a == "--set") {
     if (!args->value(&v, why)) return Parsed::kBad;

@@ -241,6 +241,66 @@ TEST(Metrics, CrossingStrandsAnalytic) {
   EXPECT_NEAR(clumpDistance(m, p, sat, 0.004, &scratch), 0.004, 1e-15);
 }
 
+TEST(Metrics, CrossingsCountSegmentsPassingThroughEachOther) {
+  // Strand 0 along x at z = 0; strand 1 along y, moving from z = +dz to z = -dz between the
+  // frames: exactly its segment over the crossing passes through strand 0's segment there.
+  const int n = 11;
+  HairModel m = strandsOnly({n, n});
+  auto frame = [&](double z1, double shift) {
+    Vec3List p;
+    for (int i = 0; i < n; ++i) p.push_back(Vec3(-0.05 + 0.01 * i + 0.005, 0.0, 0.0));
+    for (int i = 0; i < n; ++i) p.push_back(Vec3(shift, -0.05 + 0.01 * i + 0.005, z1));
+    return p;
+  };
+  MetricScratch scratch;
+  for (int threads : {1, 2}) {
+    EXPECT_EQ(crossingCount(m, frame(0.003, 0.0), frame(-0.003, 0.0), &scratch, threads), 1);
+    EXPECT_EQ(crossingCount(m, frame(-0.003, 0.0), frame(0.003, 0.0), &scratch, threads), 1);
+    // Down to just above strand 0: no crossing.
+    EXPECT_EQ(crossingCount(m, frame(0.003, 0.0), frame(1e-6, 0.0), &scratch, threads), 0);
+    // A diagonal strand passing 2 mm beyond strand 0's free end (x = 0.055): the lines cross
+    // at x = 0.057, the segments do not, though their swept boxes overlap.
+    auto diagonal = [&](double z1) {
+      Vec3List p = frame(0.0, 0.0);
+      for (int k = 0; k < n; ++k) {
+        const double t = (k - 5 + 0.5) * 0.01 / std::sqrt(2.0);
+        p[n + k] = Vec3(0.057 + t, t, z1);
+      }
+      return p;
+    };
+    EXPECT_EQ(crossingCount(m, diagonal(0.003), diagonal(-0.003), &scratch, threads), 0);
+    // A still pair, and one sliding along without passing through: nothing.
+    EXPECT_EQ(crossingCount(m, frame(0.002, 0.0), frame(0.002, 0.0), &scratch, threads), 0);
+    EXPECT_EQ(crossingCount(m, frame(0.002, 0.0), frame(0.002, 0.02), &scratch, threads), 0);
+  }
+  // Random grooms moved randomly: the grid finds exactly the pairs that a test of every pair of
+  // segments (of different strands, each as a two-strand model of its own) finds, for any thread
+  // count.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> jolt(0.0, 0.004);
+  const HairModel pair = strandsOnly({2, 2});
+  int64_t total = 0;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const RandomGroom g(20, 8, 0.008, 0.01, seed);
+    Vec3List after = g.points;
+    for (Vec3& x : after) x += Vec3(jolt(rng), jolt(rng), jolt(rng));
+    int64_t expected = 0;
+    const HairModel& gm = g.model;
+    for (int a = 0; a < gm.strandCount(); ++a)
+      for (int b = a + 1; b < gm.strandCount(); ++b)
+        for (int i = gm.strandBegin(a); i + 1 < gm.strandBegin(a) + gm.strandSize(a); ++i)
+          for (int j = gm.strandBegin(b); j + 1 < gm.strandBegin(b) + gm.strandSize(b); ++j) {
+            const Vec3List p0 = {g.points[i], g.points[i + 1], g.points[j], g.points[j + 1]};
+            const Vec3List p1 = {after[i], after[i + 1], after[j], after[j + 1]};
+            expected += crossingCount(pair, p0, p1, &scratch);
+          }
+    for (int threads : {1, 2})
+      EXPECT_EQ(crossingCount(gm, g.points, after, &scratch, threads), expected) << seed;
+    total += expected;
+  }
+  EXPECT_GT(total, 10);
+}
+
 TEST(Metrics, HeadPenetrationOnThreadsEqualsTheDiagnostic) {
   // Strands around a turned, moved head: particles outside the ellipsoid (some in the neck),
   // one particle of one strand deeper inside; the roots at the centre, deeper still, do not

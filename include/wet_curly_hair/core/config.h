@@ -235,6 +235,37 @@ struct ObstacleCollisionConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
+/// Hair-hair contact, per length (docs/physics.md §11; hair_contact.h). A sphere stands for the
+/// length of strand l_i around it (the pruned particles' shares go to the sphere before them), so a
+/// sphere pair gets the stiffness K l_i l_j and damping D l_i l_j: two pieces of hair crossing feel
+/// the same force at 32 or 256 particles per strand.
+struct HairContactConfig {
+  bool enabled = false;
+  /// Sphere radius r, m: two spheres of different strands touch closer than 2 r. A simulated
+  /// strand stands for a wisp, so r is the wisp's radius, not a hair's; it also has to close
+  /// the gaps between spheres along a strand (2 r above the edge length at the resolution used,
+  /// or strands slip between spheres: docs/physics.md §11.2).
+  double radius_m = 0.004;
+  /// Iben's pruning sparsity s: walking from the root, the next sphere is the first particle at
+  /// least s 2 r from the last one in the rest pose (1: the spheres just touch). (0, 1].
+  double sparsity = 0.75;
+  /// K, N/m per m of each strand: a sphere pair pushes apart with K l_i l_j (2 r - d).
+  double stiffness_n_per_m3 = 5.0e5;
+  /// D, N s/m per m of each strand: damping of the normal relative velocity, D l_i l_j.
+  double damping_n_s_per_m3 = 600.0;
+  /// Coulomb friction coefficient between strands (the sliding force is at most mu times the
+  /// normal force, and never more than stops the pair's sliding within the substep).
+  double friction = 0.2;
+  /// Stiffness ramp on first contact (full damping from the first substep: Iben), s.
+  double ramp_time_s = 0.005;
+  /// Stiffness taper after release: a pair that touches again within it resumes where it was, s.
+  double taper_time_s = 0.005;
+  /// Verlet skin, m: the sphere pairs within 2 r + skin are listed and the list is rebuilt only
+  /// when a sphere has moved more than skin / 2 since it was built.
+  double skin_m = 0.004;
+  bool validate(const std::string& prefix, std::string* why) const;
+};
+
 /// Everything the step needs besides the model and the inputs.
 struct SolverConfig {
   StretchConfig stretch;
@@ -247,6 +278,7 @@ struct SolverConfig {
   AdhesionConfig adhesion;
   StiffnessConfig stiffness;
   ObstacleCollisionConfig obstacle;
+  HairContactConfig hair_contact;
   Vec3 gravity_m_s2 = Vec3(0.0, 0.0, -9.81);  ///< world frame, m/s^2.
   /// Sag-free start (docs/physics.md §8, docs/physics.md §8): buildModel solves the stretch rest
   /// lengths and bending targets so that the groom is an equilibrium under gravity_m_s2 on the

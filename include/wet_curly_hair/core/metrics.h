@@ -63,6 +63,17 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
 int tangleCount(const HairModel& model, const Vec3List& points, double strand_radius_m,
                 MetricScratch* scratch, int threads = 1, int strand_stride = 1);
 
+/// Segment pairs of different strands that pass through each other between two frames (the
+/// positions taken to move linearly from `before` to `after`): the pairs whose signed volume
+/// changes sign while the two segments meet (crossed within kCrossingTolerance of their
+/// lengths at the coplanar instant). A pair passing an even number of times in one frame is not
+/// counted. Exact over the candidate pairs (swept boxes on the tangle count's segment grid);
+/// any thread count gives the same count.
+int64_t crossingCount(const HairModel& model, const Vec3List& before, const Vec3List& after,
+                      MetricScratch* scratch, int threads = 1);
+/// Relative distance at the coplanar instant under which two segments count as meeting.
+constexpr double kCrossingTolerance = 1e-6;
+
 /// Edge strain and strand extension of `points` in one pass over the edges, the strands shared
 /// among `threads` threads.
 struct LengthStats {

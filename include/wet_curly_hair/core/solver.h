@@ -40,6 +40,7 @@ enum Stage : int {
   kStageRepair,             ///< finite/strain checks and repairs (per step)
   kStageCohesion,           ///< stable cohesion display positions (per step)
   kStageCohesionForces,     ///< force-based baselines lin/kim (per substep, all strands)
+  kStageHairContact,        ///< hair-hair contact forces (per substep, spheres; hair_contact.h)
   kStageCount
 };
 
@@ -67,6 +68,12 @@ struct StepStats {
   uint64_t cohesion_particles = 0;          ///< wet particles that found cross-strand neighbours.
   uint64_t wet_strands = 0;                 ///< strands with any saturation.
   uint64_t strands_near_obstacles = 0;      ///< strands whose reach touches an obstacle.
+  /// Hair-hair contact (hair_contact.h): sphere pairs of different strands touching at the last
+  /// substep, strands with a contact force at the last substep, and Verlet list builds.
+  uint64_t hair_contacts = 0;
+  uint64_t hair_contact_strands = 0;
+  uint64_t hair_contact_list_builds = 0;
+  uint64_t hair_contact_listed_pairs = 0;  ///< sphere pairs in the Verlet list (last substep).
   /// Per stage: particles it ran on (particle-substeps for per-substep stages, particles for
   /// per-step ones) and CPU seconds summed over the solver threads (only with inputs.clock).
   uint64_t stage_particles[kStageCount] = {};

@@ -61,6 +61,35 @@ struct NeighborGrid {
   void resize(int particles, const std::vector<uint32_t>& strand_offsets);
 };
 
+/// Hair-hair contact (hair_contact.h): the pruned spheres of a model for a radius and sparsity,
+/// and the per-substep scratch. Built by prepareHairContact (allocates when the model or the
+/// radius/sparsity change); the per-substep pass allocates only when its pair list outgrows its
+/// capacity.
+struct HairContactState {
+  double radius_m = std::numeric_limits<double>::quiet_NaN();  ///< what the spheres were built for
+  double sparsity = std::numeric_limits<double>::quiet_NaN();
+  int particles = -1;
+  std::vector<uint32_t> sphere_particle;  ///< per sphere, its particle.
+  std::vector<uint32_t> sphere_offsets;   ///< strands + 1: the spheres of each strand.
+  std::vector<double> sphere_length_m;    ///< per sphere, the strand length it stands for.
+  std::vector<double> engagement;         ///< per sphere, the ramp variable a in [0, 1].
+  std::vector<uint8_t> touching;          ///< per sphere, touching anything this substep.
+  Vec3List sphere_position;               ///< per sphere, its particle's position (grid input).
+  Vec3List built_position;                ///< per sphere, where it was when the list was built.
+  NeighborGrid grid;                      ///< over the spheres (their strand ids per sphere).
+  /// Verlet list in both directions (CSR): sphere a's candidates are
+  /// neighbor[neighbor_start[a] .. neighbor_start[a + 1]), sorted.
+  std::vector<uint32_t> neighbor_start, neighbor;
+  std::vector<std::vector<uint32_t>> chunk_rows;  ///< per build thread: its rows, joined after.
+  std::vector<uint8_t> strand_touching;  ///< per strand: any sphere touching (force applied).
+  bool list_valid = false;
+  uint64_t list_builds = 0;     ///< Verlet list builds so far.
+  uint64_t touching_pairs = 0;  ///< sphere pairs touching in the last substep.
+  uint64_t listed_pairs = 0;    ///< sphere pairs in the list (each once).
+  uint64_t active_spheres = 0;  ///< spheres touching in the last substep.
+  void invalidate() { list_valid = false; }
+};
+
 /// Lattice of the approximate ("grid") cohesion evaluation (cohesion_grid.h), allocated once for
 /// HairModel::cohesion_grid_nodes nodes; each step uses the part that covers the hair's current
 /// bounding box. Node arrays in x-fastest order.
@@ -138,6 +167,7 @@ struct HairState {
   Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
   NeighborGrid grid;
   CohesionNodeGrid cohesion_grid;
+  HairContactState hair_contact;
   double time_s = 0.0;  ///< simulated time of the current positions, s.
   uint64_t step_count = 0;
   uint64_t substep_count = 0;

@@ -33,6 +33,7 @@
 #include "wet_curly_hair/Status.h"
 #include "wet_curly_hair/Strands.h"
 #include "wet_curly_hair/WaterChange.h"
+#include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/obstacles.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -81,6 +82,8 @@ class WetCurlyHairNode {
   // The following run with sim_mutex_ held.
   void advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lookup);
   void resetHairLocked(const Pose& head_pose, const std::string& reason);
+  /// Adds the crossings of the last frame (hair contact on only; Status.crossings).
+  void countCrossingsLocked();
   void applyDueChangesLocked(int64_t t_ns);
   void stepWaterLocked();
   void swapInFieldLocked();
@@ -168,6 +171,10 @@ class WetCurlyHairNode {
   std::multimap<int64_t, WaterCommand> pending_water_;
   double water_step_s_ = 0.0;  ///< the water stage of the last frame, wall, s
   StepStats last_stats_;
+  // Crossings while hair contact is on (Status.crossings): the last frame's positions.
+  MetricScratch crossing_scratch_;
+  Vec3List previous_position_;
+  long long crossings_ = 0;
   FieldInfo field_;
   Strands strands_msg_;  ///< reused storage
   visualization_msgs::MarkerArray markers_msg_;

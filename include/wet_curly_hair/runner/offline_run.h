@@ -32,6 +32,11 @@ struct RunOptions {
   /// (--no-tangles).
   bool clump_distance = true;
   bool tangles = true;
+  /// Crossings (segment pairs of different strands passing through each other between two
+  /// frames, crossingCount) every frame: with hair contact on unless --no-crossings; always with
+  /// --crossings (crossings_always). About the cost of a tangle count per frame.
+  bool crossings = true;
+  bool crossings_always = false;
   /// The clump distance and the tangle counts (series included) measure every k-th strand,
   /// k = ceil(strands / sample_strands): exact up to that many strands, estimates beyond
   /// (clumpDistance, tangleCount; runner --sample-strands N). 0: every strand, exact at any
@@ -71,6 +76,7 @@ enum Measurement {
   kMeasureCurlShape,        ///< curl_radius_tip_m, curl_pitch_tip_m (last frame)
   /// With the water stage on: water_held_series_kg, mean_tip_height_m, clump_distance_series_m
   kMeasureWater,
+  kMeasureCrossings,  ///< crossings (every frame; with hair contact or --crossings)
   kMeasurementCount
 };
 const char* measurementName(Measurement m);
@@ -112,6 +118,16 @@ struct RunSummary {
   int tangles = 0;        ///< final frame: touching segment pairs of different strands.
   int max_tangles = 0;    ///< the most at any sampled frame (tangle_series) and the last.
   int tangles_sim = 0;    ///< final frame, on the simulated positions (not p^w).
+  /// Segment pairs of different strands that passed through each other, summed over the frames
+  /// (simulated positions; crossingCount); -1 when not measured (RunOptions::crossings).
+  long long crossings = -1;
+  long long max_crossings_per_frame = -1;  ///< the most in one frame; -1 when not measured.
+  /// Hair contact: touching sphere pairs at the last substep of the run, the most strands with
+  /// a contact force at a substep's end of any frame, and Verlet list builds over the run.
+  unsigned long long hair_contacts = 0;
+  unsigned long long hair_contact_strands_max = 0;
+  unsigned long long hair_contact_list_builds = 0;
+  unsigned long long hair_contact_listed_pairs_max = 0;  ///< the longest Verlet list of the run.
   double curl_radius_tip_m = 0.0;  ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
   double obstacle_contact_s = 0.0;  ///< mean over strands that touched: time within the band.

@@ -1,0 +1,200 @@
+#include "wet_curly_hair/core/hair_contact.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "parallel.h"
+#include "wet_curly_hair/core/cohesion.h"
+
+namespace wet_curly_hair {
+
+using detail::parallelFor;
+using detail::Schedule;
+
+Vec3 hairContactPairForce(const Vec3& d, const Vec3& dv, double contact_m, double k, double c,
+                          double friction, double m_eff, double h) {
+  const double r2 = d.squaredNorm();
+  if (!(r2 < contact_m * contact_m) || r2 <= 0.0) return Vec3::Zero();
+  const double r = std::sqrt(r2);
+  const Vec3 n = d / r;
+  const double vn = dv.dot(n);
+  // Normal push: penalty plus damping of the approach; a separating pair is slowed by the
+  // damping but never pulled together.
+  const double push = std::max(0.0, k * (contact_m - r) - c * vn);
+  Vec3 f = -push * n;
+  const Vec3 dv_t = dv - vn * n;
+  const double slide = dv_t.norm();
+  if (slide > 0.0 && friction > 0.0 && push > 0.0) {
+    // Kinetic friction drags i along j's sliding; capped at what stops the sliding of the pair
+    // in one substep (the discrete form of sticking).
+    const double drag = std::min(friction * push, m_eff * slide / h);
+    f += (drag / slide) * dv_t;
+  }
+  return f;
+}
+
+double hairContactEngagement(double a, bool touching, double h, double ramp_s, double taper_s) {
+  if (touching) return ramp_s > 0.0 ? std::min(1.0, a + h / ramp_s) : 1.0;
+  return taper_s > 0.0 ? std::max(0.0, a - h / taper_s) : 0.0;
+}
+
+void prepareHairContact(const HairModel& model, const HairContactConfig& config,
+                        HairContactState* c) {
+  if (c->particles == model.particleCount() && c->radius_m == config.radius_m &&
+      c->sparsity == config.sparsity)
+    return;
+  c->particles = model.particleCount();
+  c->radius_m = config.radius_m;
+  c->sparsity = config.sparsity;
+  c->sphere_particle.clear();
+  c->sphere_length_m.clear();
+  c->sphere_offsets.assign(1, 0);
+  // Iben's pruning: from the root, the next sphere is the first particle at least s 2 r from the
+  // last one (rest pose); a pruned particle's share of the strand goes to the sphere before it.
+  const double spacing = config.sparsity * 2.0 * config.radius_m;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+    int last = begin;
+    c->sphere_particle.push_back(static_cast<uint32_t>(begin));
+    c->sphere_length_m.push_back(model.length_share_m[begin]);
+    for (int i = begin + 1; i < end; ++i) {
+      if ((model.rest_position_head[i] - model.rest_position_head[last]).norm() >= spacing) {
+        last = i;
+        c->sphere_particle.push_back(static_cast<uint32_t>(i));
+        c->sphere_length_m.push_back(0.0);
+      }
+      c->sphere_length_m.back() += model.length_share_m[i];
+    }
+    c->sphere_offsets.push_back(static_cast<uint32_t>(c->sphere_particle.size()));
+  }
+  const size_t spheres = c->sphere_particle.size();
+  c->engagement.assign(spheres, 0.0);
+  c->touching.assign(spheres, 0);
+  c->sphere_position.assign(spheres, Vec3::Zero());
+  c->built_position.assign(spheres, Vec3::Zero());
+  c->neighbor_start.assign(spheres + 1, 0);
+  c->strand_touching.assign(model.strandCount(), 0);
+  c->grid.resize(static_cast<int>(spheres), c->sphere_offsets);
+  c->list_valid = false;
+}
+
+namespace {
+
+/// True when two spheres may have come within 2 r that were farther than 2 r + skin when the
+/// list was built: the two largest displacements since then add up to more than the skin.
+/// Measured in the head frame: a rigid motion keeps every distance, so hair carried by the head
+/// keeps its list.
+bool listStale(const HairContactState& c, const Pose& head, double skin_m) {
+  if (!c.list_valid) return true;
+  const Mat3 to_head = head.rotation.conjugate().toRotationMatrix();
+  double first = 0.0, second = 0.0;
+  for (size_t a = 0; a < c.sphere_position.size(); ++a) {
+    const double moved =
+        (to_head * (c.sphere_position[a] - head.translation) - c.built_position[a]).norm();
+    if (!(moved <= skin_m)) return true;  // also NaN
+    if (moved > first) {
+      second = first;
+      first = moved;
+    } else if (moved > second) {
+      second = moved;
+    }
+  }
+  return first + second > skin_m;
+}
+
+/// The Verlet list: every pair of spheres of different strands within 2 r + skin, in both
+/// directions, each row sorted. One pass: each thread fills the rows of a contiguous range of
+/// spheres into its own buffer, and the buffers are joined in sphere order (the same list for
+/// any thread count).
+void buildPairList(const HairContactConfig& config, const Pose& head, int threads,
+                   HairContactState* c) {
+  const double reach = 2.0 * config.radius_m + config.skin_m;
+  const int spheres = static_cast<int>(c->sphere_position.size());
+  buildNeighborGrid(c->sphere_position, reach, &c->grid, threads);
+  const int chunks = std::max(1, threads);
+  if (static_cast<int>(c->chunk_rows.size()) < chunks) c->chunk_rows.resize(chunks);
+  parallelFor(threads, Schedule::kStatic, 1, chunks, [&](int t) {
+    std::vector<uint32_t>& out = c->chunk_rows[t];
+    out.clear();
+    const int lo = int(int64_t(spheres) * t / chunks),
+              hi = int(int64_t(spheres) * (t + 1) / chunks);
+    for (int a = lo; a < hi; ++a) {
+      const size_t first = out.size();
+      if (c->sphere_position[a].allFinite())
+        forEachOtherStrandNeighbor(c->grid, c->sphere_position, c->grid.strand_of[a],
+                                   c->sphere_position[a], reach,
+                                   [&](uint32_t b, double) { out.push_back(b); });
+      std::sort(out.begin() + first, out.end());
+      c->neighbor_start[a + 1] = static_cast<uint32_t>(out.size() - first);
+    }
+  });
+  for (int a = 0; a < spheres; ++a) c->neighbor_start[a + 1] += c->neighbor_start[a];
+  if (c->neighbor.size() < c->neighbor_start[spheres])
+    c->neighbor.resize(c->neighbor_start[spheres]);
+  parallelFor(threads, Schedule::kStatic, 1, chunks, [&](int t) {
+    const int lo = int(int64_t(spheres) * t / chunks);
+    std::copy(c->chunk_rows[t].begin(), c->chunk_rows[t].end(),
+              c->neighbor.begin() + c->neighbor_start[lo]);
+  });
+  const Mat3 to_head = head.rotation.conjugate().toRotationMatrix();
+  for (int a = 0; a < spheres; ++a)
+    c->built_position[a] = to_head * (c->sphere_position[a] - head.translation);
+  c->list_valid = true;
+  c->listed_pairs = c->neighbor_start[spheres] / 2;
+  ++c->list_builds;
+}
+
+}  // namespace
+
+uint64_t computeHairContactForces(const HairModel& model, const HairContactConfig& config, double h,
+                                  const Pose& head, int threads, HairState* state) {
+  HairContactState* c = &state->hair_contact;
+  prepareHairContact(model, config, c);
+  const int spheres = static_cast<int>(c->sphere_particle.size());
+  for (int a = 0; a < spheres; ++a) c->sphere_position[a] = state->position[c->sphere_particle[a]];
+  if (listStale(*c, head, config.skin_m)) buildPairList(config, head, threads, c);
+  const double contact = 2.0 * config.radius_m;
+  const double K = config.stiffness_n_per_m3, D = config.damping_n_s_per_m3;
+  // Each sphere sums its own pairs in list order: no two threads write one particle, and the
+  // pair force on b is exactly minus the one on a, so momentum is conserved pair by pair.
+  const int64_t pairs = detail::parallelSum(threads, 64, spheres, [&](int a) {
+    const uint32_t pa = c->sphere_particle[a];
+    const Vec3& xa = c->sphere_position[a];
+    const Vec3& va = state->velocity[pa];
+    Vec3 f = Vec3::Zero();
+    int64_t touching = 0;
+    for (uint32_t e = c->neighbor_start[a]; e < c->neighbor_start[a + 1]; ++e) {
+      const uint32_t b = c->neighbor[e];
+      const uint32_t pb = c->sphere_particle[b];
+      const Vec3 d = c->sphere_position[b] - xa;
+      if (!(d.squaredNorm() < contact * contact)) continue;
+      ++touching;
+      const double inv = model.inv_mass[pa] + model.inv_mass[pb];
+      if (!(inv > 0.0)) continue;  // two roots: both kinematic
+      const double share = c->sphere_length_m[a] * c->sphere_length_m[b];
+      const double ramp = std::min(c->engagement[a], c->engagement[b]);
+      f += hairContactPairForce(d, state->velocity[pb] - va, contact, ramp * K * share, D * share,
+                                config.friction, 1.0 / inv, h);
+    }
+    c->touching[a] = touching > 0;
+    state->external_force[pa] += f;
+    return touching;
+  });
+  for (int a = 0; a < spheres; ++a)
+    c->engagement[a] = hairContactEngagement(c->engagement[a], c->touching[a] != 0, h,
+                                             config.ramp_time_s, config.taper_time_s);
+  uint64_t active = 0;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    uint8_t any = 0;
+    for (uint32_t a = c->sphere_offsets[s]; a < c->sphere_offsets[s + 1]; ++a)
+      any |= c->touching[a];
+    c->strand_touching[s] = any;
+    for (uint32_t a = c->sphere_offsets[s]; a < c->sphere_offsets[s + 1]; ++a)
+      active += c->touching[a];
+  }
+  c->active_spheres = active;
+  c->touching_pairs = static_cast<uint64_t>(pairs / 2);
+  return c->touching_pairs;
+}
+
+}  // namespace wet_curly_hair
