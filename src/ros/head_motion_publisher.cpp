@@ -36,6 +36,9 @@ void HeadMotionPublisher::init() {
 void HeadMotionPublisher::onTimer(const ros::TimerEvent&) {
   const ros::Time now = ros::Time::now();
   if (now.isZero()) return;  // sim time without a clock yet
+  // Under sim time two ticks can fall on one /clock value: tf2 would drop the second transform
+  // as repeated data (TF_REPEATED_DATA) and warn on every one.
+  if (!start_.isZero() && now == last_) return;
   if (start_.isZero() || now < last_) {
     if (!start_.isZero()) ROS_WARN("ROS time jumped back: the head motion starts again");
     start_ = now;

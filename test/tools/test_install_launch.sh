@@ -19,7 +19,9 @@ for f in setup.bash _setup_util.py .catkin lib/libwet_curly_hair_core.so lib/lib
     include/wet_curly_hair/core/solver.h include/wet_curly_hair/io/scene.h \
     include/wet_curly_hair/Strands.h include/wet_curly_hair/SetSaturation.h \
     share/wet_curly_hair/package.xml share/wet_curly_hair/launch_notes/wet_curly_hair.launch \
-    share/wet_curly_hair/launch_notes/demo.launch share/wet_curly_hair/config/default_node.yaml \
+    share/wet_curly_hair/launch_notes/demo.launch share/wet_curly_hair/launch_notes/two_heads.launch \
+    share/wet_curly_hair/launch_notes/head.launch \
+    share/wet_curly_hair/config/default_node.yaml \
     share/wet_curly_hair/config/scenes/default.yaml share/wet_curly_hair/msg/Strands.msg \
     share/wet_curly_hair/srv/SetSaturation.srv share/wet_curly_hair/cmake/wet_curly_hairConfig.cmake \
     lib/python3/dist-packages/wet_curly_hair/srv/__init__.py; do
