@@ -80,6 +80,12 @@ void prepareHairContact(const HairModel& model, const HairContactConfig& config,
 
 namespace {
 
+/// Most list entries per sphere (on average over a build thread's spheres): a groom far denser
+/// than its contact radius (thousands of neighbours within reach) would otherwise fill memory.
+/// Past it the substep has no contact forces and the overflow is counted
+/// (WarningStats::hair_contact_overflows).
+constexpr size_t kMaxListedPerSphere = 256;
+
 /// True when two spheres may have come within 2 r that were farther than 2 r + skin when the
 /// list was built: the two largest displacements since then add up to more than the skin.
 /// Measured in the head frame: a rigid motion keeps every distance, so hair carried by the head
@@ -106,7 +112,7 @@ bool listStale(const HairContactState& c, const Pose& head, double skin_m) {
 /// directions, each row sorted. One pass: each thread fills the rows of a contiguous range of
 /// spheres into its own buffer, and the buffers are joined in sphere order (the same list for
 /// any thread count).
-void buildPairList(const HairContactConfig& config, const Pose& head, int threads,
+bool buildPairList(const HairContactConfig& config, const Pose& head, int threads,
                    HairContactState* c) {
   const double reach = 2.0 * config.radius_m + config.skin_m;
   const int spheres = static_cast<int>(c->sphere_position.size());
@@ -118,9 +124,10 @@ void buildPairList(const HairContactConfig& config, const Pose& head, int thread
     out.clear();
     const int lo = int(int64_t(spheres) * t / chunks),
               hi = int(int64_t(spheres) * (t + 1) / chunks);
+    const size_t cap = kMaxListedPerSphere * static_cast<size_t>(hi - lo);
     for (int a = lo; a < hi; ++a) {
       const size_t first = out.size();
-      if (c->sphere_position[a].allFinite())
+      if (c->sphere_position[a].allFinite() && out.size() <= cap)
         forEachOtherStrandNeighbor(c->grid, c->sphere_position, c->grid.strand_of[a],
                                    c->sphere_position[a], reach,
                                    [&](uint32_t b, double) { out.push_back(b); });
@@ -128,6 +135,15 @@ void buildPairList(const HairContactConfig& config, const Pose& head, int thread
       c->neighbor_start[a + 1] = static_cast<uint32_t>(out.size() - first);
     }
   });
+  for (int t = 0; t < chunks; ++t) {
+    const int lo = int(int64_t(spheres) * t / chunks),
+              hi = int(int64_t(spheres) * (t + 1) / chunks);
+    if (c->chunk_rows[t].size() > kMaxListedPerSphere * static_cast<size_t>(hi - lo)) {
+      c->list_valid = false;  // too dense for the radius: no list, no forces (counted)
+      for (std::vector<uint32_t>& rows : c->chunk_rows) std::vector<uint32_t>().swap(rows);
+      return false;
+    }
+  }
   for (int a = 0; a < spheres; ++a) c->neighbor_start[a + 1] += c->neighbor_start[a];
   if (c->neighbor.size() < c->neighbor_start[spheres])
     c->neighbor.resize(c->neighbor_start[spheres]);
@@ -142,6 +158,7 @@ void buildPairList(const HairContactConfig& config, const Pose& head, int thread
   c->list_valid = true;
   c->listed_pairs = c->neighbor_start[spheres] / 2;
   ++c->list_builds;
+  return true;
 }
 
 }  // namespace
@@ -152,7 +169,13 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
   prepareHairContact(model, config, c);
   const int spheres = static_cast<int>(c->sphere_particle.size());
   for (int a = 0; a < spheres; ++a) c->sphere_position[a] = state->position[c->sphere_particle[a]];
-  if (listStale(*c, head, config.skin_m)) buildPairList(config, head, threads, c);
+  if (listStale(*c, head, config.skin_m) && !buildPairList(config, head, threads, c)) {
+    ++state->warnings.hair_contact_overflows;
+    std::fill(c->touching.begin(), c->touching.end(), 0);
+    std::fill(c->strand_touching.begin(), c->strand_touching.end(), 0);
+    c->touching_pairs = c->active_spheres = c->listed_pairs = 0;
+    return 0;
+  }
   const double contact = 2.0 * config.radius_m;
   const double K = config.stiffness_n_per_m3, D = config.damping_n_s_per_m3;
   // Each sphere sums its own pairs in list order: no two threads write one particle, and the

@@ -529,6 +529,20 @@ LengthStats lengthStats(const HairModel& model, const Vec3List& points, MetricSc
   return out;
 }
 
+double meanHeadDistance(const HairModel& model, const Vec3List& points, const Pose& head_pose) {
+  double sum = 0.0;
+  long count = 0;
+  Vec3 normal;
+  for (int s = 0; s < model.strandCount(); ++s) {
+    for (int i = model.strandBegin(s) + 1; i < model.strandBegin(s) + model.strandSize(s); ++i) {
+      if (!points[i].allFinite()) continue;
+      sum += model.head.distance(head_pose.applyInverse(points[i]), &normal);
+      ++count;
+    }
+  }
+  return count ? sum / count : 0.0;
+}
+
 double headPenetration(const HairModel& model, const Vec3List& points, const Pose& head_pose,
                        int threads) {
   // Four particles at a time in double lanes (the distance is a handful of divisions and square

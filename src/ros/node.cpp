@@ -498,6 +498,7 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->cohesion_particles = last_stats_.cohesion_particles;
   s->hair_contacts = last_stats_.hair_contacts;
   s->hair_contact_strands = last_stats_.hair_contact_strands;
+  s->hair_contact_overflows = state_.warnings.hair_contact_overflows;
   s->crossings = scene_.solver.hair_contact.enabled ? crossings_ : -1;
   s->stage_names.clear();
   s->stage_times_s.clear();

@@ -54,10 +54,14 @@ std::string RunSummary::toJson() const {
       .add("max_tangles", max_tangles)
       .add("tangles_sim", tangles_sim)
       .add("crossings", crossings)
+      .add("mean_head_distance_m", mean_head_distance_m)
+      .add("mean_head_distance_run_m", mean_head_distance_run_m)
       .add("max_crossings_per_frame", max_crossings_per_frame)
+      .add("crossings_series", crossings_series)
       .add("hair_contacts", hair_contacts)
       .add("hair_contact_strands_max", hair_contact_strands_max)
       .add("hair_contact_list_builds", hair_contact_list_builds)
+      .add("hair_contact_overflows", hair_contact_overflows)
       .add("hair_contact_listed_pairs_max", hair_contact_listed_pairs_max)
       .add("curl_radius_tip_m", curl_radius_tip_m)
       .add("curl_pitch_tip_m", curl_pitch_tip_m)
@@ -133,8 +137,9 @@ std::string RunSummary::toJson() const {
 
 const char* measurementName(Measurement m) {
   static const char* const kNames[kMeasurementCount] = {
-      "rigid_motion",  "energy",         "strain",  "head_penetration", "obstacles", "jitter",
-      "tangle_series", "clump_distance", "tangles", "curl_shape",       "water",     "crossings"};
+      "rigid_motion", "energy",        "strain",         "head_penetration", "obstacles",
+      "jitter",       "tangle_series", "clump_distance", "tangles",          "curl_shape",
+      "water",        "crossings",     "head_distance"};
   return m >= 0 && m < kMeasurementCount ? kNames[m] : "";
 }
 
@@ -387,6 +392,12 @@ class FrameMeasurements {
     });
     timed(kMeasureObstacles, [&] { measureObstacles(f, *state, s); });
     timed(kMeasureJitter, [&] { measureJitter(f, *state, pose); });
+    timed(kMeasureHeadDistance, [&] {
+      const double d = meanHeadDistance(model_, state->position, pose);
+      s->mean_head_distance_m = d;  // the last frame's
+      head_distance_sum_ += d;
+      s->mean_head_distance_run_m = head_distance_sum_ / recorded_frames_;
+    });
     if (measureCrossings()) timed(kMeasureCrossings, [&] { recordCrossings(f, *state, s); });
     if (options_.tangle_series && f % options_.tangle_series_stride == 0) {
       timed(kMeasureTangleSeries, [&] {
@@ -410,6 +421,7 @@ class FrameMeasurements {
           crossingCount(model_, previous_position_, state.position, &scratch_, threads_);
       s->crossings += n;
       s->max_crossings_per_frame = std::max<long long>(s->max_crossings_per_frame, n);
+      s->crossings_series.push_back(static_cast<double>(n));
     }
     previous_position_ = state.position;
   }
@@ -569,6 +581,7 @@ class FrameMeasurements {
   const int sample_stride_;
   Vec3List out_prev2_, out_prev1_;
   Vec3List previous_position_;  ///< the last frame's simulated positions (crossings)
+  double head_distance_sum_ = 0.0;
   double jitter_sum_ = 0.0;
   long jitter_count_ = 0;
   std::vector<double> contact_time_;
@@ -646,6 +659,7 @@ void finishSummary(const HairModel& model, const HairState& state, double sim_s,
   s->wall_s = wall_s;
   s->repairs = state.warnings.total();
   s->head_jumps = state.warnings.head_jumps;
+  s->hair_contact_overflows = state.warnings.hair_contact_overflows;
   s->nonfinite_values = state.warnings.nonfinite_values;
   s->finite = runStayedFinite(state);
   s->max_speed_end_m_s =

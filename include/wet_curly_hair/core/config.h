@@ -235,7 +235,7 @@ struct ObstacleCollisionConfig {
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
-/// Hair-hair contact, per length (docs/physics.md §11; hair_contact.h). A sphere stands for the
+/// Hair-hair contact, per length (docs/hair_contact.md; hair_contact.h). A sphere stands for the
 /// length of strand l_i around it (the pruned particles' shares go to the sphere before them), so a
 /// sphere pair gets the stiffness K l_i l_j and damping D l_i l_j: two pieces of hair crossing feel
 /// the same force at 32 or 256 particles per strand.
@@ -244,7 +244,7 @@ struct HairContactConfig {
   /// Sphere radius r, m: two spheres of different strands touch closer than 2 r. A simulated
   /// strand stands for a wisp, so r is the wisp's radius, not a hair's; it also has to close
   /// the gaps between spheres along a strand (2 r above the edge length at the resolution used,
-  /// or strands slip between spheres: docs/physics.md §11.2).
+  /// or strands slip between spheres: docs/hair_contact.md).
   double radius_m = 0.004;
   /// Iben's pruning sparsity s: walking from the root, the next sphere is the first particle at
   /// least s 2 r from the last one in the rest pose (1: the spheres just touch). (0, 1].

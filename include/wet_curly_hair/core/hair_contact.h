@@ -2,7 +2,7 @@
 // collision spheres on a pruned subset of the particles, stiffness ramped in on first contact and
 // tapered out on release, Coulomb friction between strands. The forces couple strands, so they
 // are evaluated once per substep for every strand and added to the strand steps as an external
-// force (the documented split of docs/physics.md §11).
+// force (the documented split of docs/hair_contact.md).
 #pragma once
 
 #include <cstdint>
@@ -23,7 +23,7 @@ namespace wet_curly_hair {
 Vec3 hairContactPairForce(const Vec3& d, const Vec3& dv, double contact_m, double k, double c,
                           double friction, double m_eff, double h);
 
-/// One step of the ramp variable a of a sphere (docs/physics.md §11.1): toward 1 at h / ramp
+/// One step of the ramp variable a of a sphere (docs/hair_contact.md): toward 1 at h / ramp
 /// while touching, toward 0 at h / taper otherwise. A pair's stiffness is min(a_i, a_j) K l_i l_j.
 double hairContactEngagement(double a, bool touching, double h, double ramp_s, double taper_s);
 

@@ -89,6 +89,10 @@ struct LengthStats {
 LengthStats lengthStats(const HairModel& model, const Vec3List& points, MetricScratch* scratch,
                         int threads = 1);
 
+/// The groom's volume as a length: the mean signed distance of the non-root particles (finite
+/// ones) from the head surface, m.
+double meanHeadDistance(const HairModel& model, const Vec3List& points, const Pose& head_pose);
+
 /// Deepest penetration (m, >= 0) of a non-root particle at `points` (world) into the head at
 /// head_pose: maxHeadPenetration of diagnostics.h (equal up to rounding: the same distance
 /// function, on four particles at a time in double lanes), the strands shared among `threads`

@@ -76,7 +76,8 @@ enum Measurement {
   kMeasureCurlShape,        ///< curl_radius_tip_m, curl_pitch_tip_m (last frame)
   /// With the water stage on: water_held_series_kg, mean_tip_height_m, clump_distance_series_m
   kMeasureWater,
-  kMeasureCrossings,  ///< crossings (every frame; with hair contact or --crossings)
+  kMeasureCrossings,     ///< crossings (every frame; with hair contact or --crossings)
+  kMeasureHeadDistance,  ///< mean_head_distance_m, mean_head_distance_run_m (every frame)
   kMeasurementCount
 };
 const char* measurementName(Measurement m);
@@ -121,12 +122,19 @@ struct RunSummary {
   /// Segment pairs of different strands that passed through each other, summed over the frames
   /// (simulated positions; crossingCount); -1 when not measured (RunOptions::crossings).
   long long crossings = -1;
+  /// The groom's volume as a length: mean distance of the particles from the head surface at the
+  /// last frame, and its mean over the frames (meanHeadDistance), m.
+  double mean_head_distance_m = 0.0;
+  double mean_head_distance_run_m = 0.0;
   long long max_crossings_per_frame = -1;  ///< the most in one frame; -1 when not measured.
+  std::vector<double> crossings_series;    ///< per frame from frame 1 (when measured).
   /// Hair contact: touching sphere pairs at the last substep of the run, the most strands with
   /// a contact force at a substep's end of any frame, and Verlet list builds over the run.
   unsigned long long hair_contacts = 0;
   unsigned long long hair_contact_strands_max = 0;
   unsigned long long hair_contact_list_builds = 0;
+  /// Substeps that ran without contact forces: the pair list would not fit (WarningStats).
+  unsigned long long hair_contact_overflows = 0;
   unsigned long long hair_contact_listed_pairs_max = 0;  ///< the longest Verlet list of the run.
   double curl_radius_tip_m = 0.0;  ///< final frame, tip third (simulated positions).
   double curl_pitch_tip_m = 0.0;
