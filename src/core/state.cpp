@@ -96,6 +96,9 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.external_force.assign(n, Vec3::Zero());
   state.density.assign(n, 0.0);
   state.normal_scratch.assign(n, Vec3::Zero());
+  if (model.followers.guide_strands > 0)
+    state.guide_displacement.assign(model.strand_offsets[model.followers.guide_strands],
+                                    Vec3::Zero());
   state.grid.resize(n, model.strand_offsets);
   state.cohesion_grid.resize(model.cohesion_grid_nodes, n);
   state.scratch.resize(kMaxSolverThreads);

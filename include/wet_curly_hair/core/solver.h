@@ -40,6 +40,7 @@ enum Stage : int {
   kStageRepair,             ///< finite/strain checks and repairs (per step)
   kStageCohesion,           ///< stable cohesion display positions (per step)
   kStageCohesionForces,     ///< force-based baselines lin/kim (per substep, all strands)
+  kStageFollowers,          ///< followers placed from their guides (per step, followers.h)
   kStageCount
 };
 
