@@ -5,6 +5,8 @@
 #include <limits>
 
 #include "parallel.h"
+#include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
@@ -55,6 +57,13 @@ void followerWeights(const double* d, int count, double* w) {
 }
 
 namespace {
+
+/// The frames of a strand's edges (n - 1 of them) on its curve x smoothed with beta (eq. 2's
+/// filter), transported from the root frame; d is scratch of n - 1.
+void smoothedFrames(const Vec3* x, int n, const Mat3& root, double beta, Vec3* d, Mat3* frames) {
+  smoothDifferences(x, n, beta, d);
+  transportFrames(root, d, n - 1, frames);
+}
 
 /// Normalized arc length of each particle of strand s (rest shape), into u (0 at the root, 1 at
 /// the tip).
@@ -125,6 +134,13 @@ void attachFollowers(int guides, std::vector<int> source, HairModel* m) {
         f.sample_fraction[e] = t;
       }
     }
+  }
+  f.guide_rest_frame.assign(first, Mat3::Identity());
+  Vec3List d(m->max_strand_size);
+  for (int g = 0; g < guides; ++g) {
+    const int begin = m->strandBegin(g), n = m->strandSize(g);
+    smoothedFrames(&m->rest_position_head[begin], n, m->root_frame_head[g], m->beta_core[g],
+                   d.data(), &f.guide_rest_frame[begin]);
   }
   f.curl_turn.assign(strands, Mat3::Identity());
   for (int s = 0; s < strands; ++s) {
@@ -210,7 +226,9 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
   const int first = model.strandBegin(f.guide_strands);
   const int k = s - f.guide_strands;
   exaggeratedRest(model, config.curl, s, &state->saturation[begin], rest);
-  const Vec3* d = state->guide_displacement.data();
+  const Vec3* xg = state->guide_position_head.data();
+  const Vec3* rg = state->guide_rest_head.data();
+  const Mat3* turn = state->guide_rotation.data();
   const CollisionConfig& hc = config.collision;
   const ObstacleCollisionConfig& oc = config.obstacle;
   bool near_obstacle = false;
@@ -220,13 +238,18 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
     near_obstacle = obstacles->distance(pose.apply(rest[0]), &normal) <= reach;
   }
   for (int i = 0; i < n; ++i) {
-    Vec3 x = rest[i];
+    // Each guide carries the follower's offset from it (exaggerated rest shapes) turned with
+    // its smoothed frame: rigid motions and large bends of the guides move the offset with them.
+    Vec3 x = Vec3::Zero();
     const size_t e0 = static_cast<size_t>(begin + i - first) * kFollowerGuides;
     for (int g = 0; g < kFollowerGuides; ++g) {
       const double w = f.weight[k * kFollowerGuides + g];
+      if (w == 0.0) continue;
       const uint32_t a = f.sample_index[e0 + g];
       const double t = f.sample_fraction[e0 + g];
-      x += w * ((1.0 - t) * d[a] + t * d[a + 1]);
+      const Vec3 guide = (1.0 - t) * xg[a] + t * xg[a + 1];
+      const Vec3 guide_rest = (1.0 - t) * rg[a] + t * rg[a + 1];
+      x += w * (guide + turn[a] * (rest[i] - guide_rest));
     }
     Vec3 normal;
     if (i > 0 && hc.head_enabled) {
@@ -261,12 +284,17 @@ void updateFollowers(const HairModel& model, const SolverConfig& config, const P
   if (f.guide_strands <= 0) return;
   threads = std::max(1, std::min(threads, static_cast<int>(state->scratch.size())));
   detail::parallelFor(threads, detail::Schedule::kStatic, 0, f.guide_strands, [&](int g) {
-    Vec3* rest = state->scratch[detail::threadIndex()].bend_p.data();
+    StrandScratch& scratch = state->scratch[detail::threadIndex()];
     const int begin = model.strandBegin(g), n = model.strandSize(g);
-    exaggeratedRest(model, config.curl, g, &state->saturation[begin], rest);
-    for (int i = 0; i < n; ++i)
-      state->guide_displacement[begin + i] =
-          pose.applyInverse(state->position[begin + i]) - rest[i];
+    exaggeratedRest(model, config.curl, g, &state->saturation[begin],
+                    &state->guide_rest_head[begin]);
+    Vec3* x = &state->guide_position_head[begin];
+    for (int i = 0; i < n; ++i) x[i] = pose.applyInverse(state->position[begin + i]);
+    Mat3* frames = scratch.frame.data();
+    smoothedFrames(x, n, model.root_frame_head[g], model.beta_core[g], scratch.smooth_bend.data(),
+                   frames);
+    for (int i = 0; i + 1 < n; ++i)
+      state->guide_rotation[begin + i] = frames[i] * f.guide_rest_frame[begin + i].transpose();
   });
   const int followers = model.strandCount() - f.guide_strands;
   detail::parallelFor(threads, detail::Schedule::kDynamic, 16, followers, [&](int k) {

@@ -163,6 +163,19 @@ TEST(Followers, FollowRatioOneIsTheFullSimulationToTheBit) {
     ASSERT_EQ(a.position[i], b.position[i]) << i;
     ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << i;
   }
+  // Every strand was simulated (the tips left the rest pose carried by the head; the head ends
+  // at the pose of the last frame, 0.5 s into the nod) and nothing was interpolated.
+  HeadMotionConfig nod;
+  nod.type = "nod";
+  const Pose end = headPose(nod, 30 * kFrame);
+  for (int s = 0; s < one.strandCount(); ++s) {
+    const int tip = one.strandBegin(s) + one.strandSize(s) - 1;
+    EXPECT_GT((end.applyInverse(b.position[tip]) - one.rest_position_head[tip]).norm(), 1e-3) << s;
+  }
+  HairState t = makeState(one, Pose(), Twist());
+  StepStats stats;
+  step(one, c, StepInputs{Pose(), Pose()}, kFrame, &t, &stats);
+  EXPECT_EQ(stats.stage_particles[kStageFollowers], 0u);
 }
 
 TEST(Followers, GuidesMoveExactlyAsTheSameStrandsInTheFullSimulation) {

@@ -47,10 +47,12 @@ bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int 
 void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
                      Vec3* out);
 
-/// Places every follower after a step: in the head frame (head_pose), its exaggerated rest shape
-/// plus the weighted displacement of its guides from theirs, sampled at the same normalized arc
-/// length; then pushed out of the head (collision offset, as the solver) and the obstacles
-/// (world frame; null: none). Velocities are the change of position over dt_s (none when
+/// Places every follower after a step, in the head frame (head_pose): the weighted sum over its
+/// guides of the guide's point at the follower particle's normalized arc length plus the
+/// follower's offset from that point on the exaggerated rest shapes, turned by the rotation of
+/// the guide's frame there (edge frames of the curve smoothed over the core smoothing length,
+/// current against rest); then pushed out of the head (collision offset, as the solver) and the
+/// obstacles (world frame; null: none). Velocities are the change of position over dt_s (none when
 /// dt_s is 0). Allocates nothing. No-op without followers.
 void updateFollowers(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
                      const Obstacles* obstacles, double dt_s, int threads, HairState* state);

@@ -29,6 +29,10 @@ struct FollowerMap {
   /// the follower's normalized arc length, and the fraction along that segment.
   std::vector<uint32_t> sample_index;
   std::vector<double> sample_fraction;
+  /// Per guide particle (edge slots, the last particle's unused): the frame of the edge on the
+  /// rest shape smoothed over the core smoothing length (beta_core), transported from the root
+  /// frame; a guide's current frames against these turn each follower's offset from it.
+  Mat3List guide_rest_frame;
   /// Per strand: the rotation that takes the strand's helix (helix_edge) to its rest axis, for
   /// the exaggerated rest shape (exaggeratedRest).
   Mat3List curl_turn;
