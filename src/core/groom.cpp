@@ -70,6 +70,14 @@ bool GroomConfig::validate(const std::string& p, std::string* why) const {
       !finiteInRange(p + "scalp_half_angle_deg", scalp_half_angle_deg, 0.0, 180.0, why) ||
       !finiteVec(p + "scalp_axis", scalp_axis, why))
     return false;
+  if (follow_ratio < 1 || follow_ratio > kMaxFollowRatio) {
+    if (why) {
+      *why = p + "follow_ratio: " + std::to_string(follow_ratio) +
+             " must be a whole number in [1, " + std::to_string(kMaxFollowRatio) +
+             "] (1: every strand simulated)";
+    }
+    return false;
+  }
   if (scalp_axis.norm() < 1e-9) {
     if (why) *why = p + "scalp_axis: must not be the zero vector";
     return false;

@@ -52,7 +52,8 @@ void prepareHairContact(const HairModel& model, const HairContactConfig& config,
   // Iben's pruning: from the root, the next sphere is the first particle at least s 2 r from the
   // last one (rest pose); a pruned particle's share of the strand goes to the sphere before it.
   const double spacing = config.sparsity * 2.0 * config.radius_m;
-  for (int s = 0; s < model.strandCount(); ++s) {
+  // The simulated strands only: followers are placed from their guides after the step.
+  for (int s = 0; s < model.simulatedStrandCount(); ++s) {
     const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
     int last = begin;
     c->sphere_particle.push_back(static_cast<uint32_t>(begin));
@@ -73,7 +74,7 @@ void prepareHairContact(const HairModel& model, const HairContactConfig& config,
   c->sphere_position.assign(spheres, Vec3::Zero());
   c->built_position.assign(spheres, Vec3::Zero());
   c->neighbor_start.assign(spheres + 1, 0);
-  c->strand_touching.assign(model.strandCount(), 0);
+  c->strand_touching.assign(model.strandCount(), 0);  // followers: never touching
   c->grid.resize(static_cast<int>(spheres), c->sphere_offsets);
   c->list_valid = false;
 }
@@ -207,7 +208,7 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
     c->engagement[a] = hairContactEngagement(c->engagement[a], c->touching[a] != 0, h,
                                              config.ramp_time_s, config.taper_time_s);
   uint64_t active = 0;
-  for (int s = 0; s < model.strandCount(); ++s) {
+  for (int s = 0; s < model.simulatedStrandCount(); ++s) {
     uint8_t any = 0;
     for (uint32_t a = c->sphere_offsets[s]; a < c->sphere_offsets[s + 1]; ++a)
       any |= c->touching[a];

@@ -6,6 +6,7 @@
 #include "parallel.h"
 #include "solver_internal.h"
 #include "wet_curly_hair/core/cohesion.h"
+#include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/hair_contact.h"
 #include "wet_curly_hair/core/head_collider.h"
@@ -55,7 +56,8 @@ const char* stageName(int stage) {
                                                   "repair",
                                                   "cohesion",
                                                   "cohesion_forces",
-                                                  "hair_contact"};
+                                                  "hair_contact",
+                                                  "followers"};
   return stage >= 0 && stage < kStageCount ? kNames[stage] : "unknown";
 }
 
@@ -123,7 +125,7 @@ void updateCurlRotation(const HairModel& model, const CurlConfig& config, int st
 }
 
 int blockStrands(const HairModel& model, int first_strand, int width) {
-  const int count = std::min(width, model.strandCount() - first_strand);
+  const int count = std::min(width, model.simulatedStrandCount() - first_strand);
   if (count < 1) return 0;
   const int n = model.strandSize(first_strand);
   if (n < 2) return 0;
@@ -282,7 +284,7 @@ double stepBlock(int width, const HairModel& model, const SolverConfig& config,
 void advanceStrands(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
                     const StepInputs& inputs, int k_begin, int k_end, int nsub, double h,
                     int threads, const uint8_t* external, HairState* state, StepStats* per_thread) {
-  const int strands = model.strandCount();
+  const int strands = model.simulatedStrandCount();
   const int width = plan.lanes ? plan.lane_width : 1;
   const int blocks = (strands + width - 1) / width;
   // One block per grab: with 16 strands per block, 100 strands are 7 blocks, and chunks of two
@@ -359,7 +361,7 @@ const uint8_t* crossStrandForces(const HairModel& model, const SolverConfig& con
 void advanceCoupled(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
                     const StepInputs& inputs, int nsub, double h, int threads, HairState* state,
                     StepStats* per_thread, StepStats* local) {
-  const int strands = model.strandCount();
+  const int strands = model.simulatedStrandCount();
   for (int k = 0; k < nsub; ++k) {
     const uint8_t* external =
         crossStrandForces(model, config, plan, inputs, double(k) / nsub, h, threads, state, local);
@@ -382,9 +384,10 @@ void advanceCoupled(const HairModel& model, const SolverConfig& config, const So
 
 /// Detects, repairs and counts numerical trouble strand by strand (a non-finite value, or a
 /// strain beyond 3x the limit): the strand goes back to its last good state, carried by the head.
+/// Simulated strands only: followers are placed from them afterwards.
 void repairStrands(const HairModel& model, const SolverConfig& config, const StepInputs& inputs,
                    HairState* state, StepStats* local) {
-  for (int s = 0; s < model.strandCount(); ++s) {
+  for (int s = 0; s < model.simulatedStrandCount(); ++s) {
     uint64_t nonfinite = 0;
     const bool finite = strandFinite(model, s, *state, &nonfinite);
     const bool strain_ok = finite && detail::strandStrainOk(model, config, s, *state);
@@ -404,7 +407,7 @@ void repairStrands(const HairModel& model, const SolverConfig& config, const Ste
       ++state->warnings.strain_repairs;
     }
   }
-  local->stage_particles[kStageRepair] += model.particleCount();
+  local->stage_particles[kStageRepair] += model.strand_offsets[model.simulatedStrandCount()];
 }
 
 /// Adds the run time since `since` to a stage (only with a clock); returns now.
@@ -444,6 +447,12 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   double lap = in.clock ? in.clock() : 0.0;
   repairStrands(model, config, in, state, &local);
   lap = lapStage(in, kStageRepair, lap, &local);
+  if (model.followers.guide_strands > 0) {
+    updateFollowers(model, config, in.head_end, in.obstacles, dt_s, threads, state);
+    local.stage_particles[kStageFollowers] +=
+        model.particleCount() - model.strand_offsets[model.followers.guide_strands];
+    lap = lapStage(in, kStageFollowers, lap, &local);
+  }
   // Stable cohesion (eq. 10): display positions after the step, never fed back (A14).
   local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state, threads);
   local.stage_particles[kStageCohesion] += local.cohesion_particles;

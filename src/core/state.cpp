@@ -100,6 +100,12 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.external_force.assign(n, Vec3::Zero());
   state.density.assign(n, 0.0);
   state.normal_scratch.assign(n, Vec3::Zero());
+  if (model.followers.guide_strands > 0) {
+    const size_t guide_particles = model.strand_offsets[model.followers.guide_strands];
+    state.guide_position_head.assign(guide_particles, Vec3::Zero());
+    state.guide_rest_head.assign(guide_particles, Vec3::Zero());
+    state.guide_rotation.assign(guide_particles, Mat3::Identity());
+  }
   state.grid.resize(n, model.strand_offsets);
   state.cohesion_grid.resize(model.cohesion_grid_nodes, n);
   state.scratch.resize(kMaxSolverThreads);

@@ -151,6 +151,9 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
     "rho, mass per length of strand, kg/m", true);
   d("groom.scalp_half_angle_deg", &g.scalp_half_angle_deg, "scalp patch half angle, deg", true);
   addVec(&t, "groom.scalp_axis", &g.scalp_axis, "scalp patch centre direction (head frame)", true);
+  i("groom.follow_ratio", &g.follow_ratio,
+    "K: one strand in K is simulated (guide), the others follow their nearest guides (1: all)",
+    true);
   GroomFileConfig& gf = s->groom_file;
   str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)",
       true);

@@ -1,5 +1,6 @@
 #include "wet_curly_hair/io/scene_setup.h"
 
+#include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/io/hair_file.h"
 
 namespace wet_curly_hair {
@@ -50,7 +51,10 @@ bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* wh
   Groom groom;
   HairImportReport r;
   if (!makeGroom(scene, &groom, why, &r)) return false;
-  if (!buildModel(groom, scene.groom.linear_density_kg_per_m, scene.head, scene.solver, model, why))
+  // Guides are chosen from the groom's roots by the same rule whether it was generated or read
+  // from a .hair file.
+  if (!buildFollowerModel(groom, scene.groom.linear_density_kg_per_m, scene.groom.follow_ratio,
+                          scene.head, scene.solver, model, why))
     return false;
   if (report != nullptr) *report = std::move(r);
   return true;

@@ -14,6 +14,7 @@ void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with
   msg->reset_count = reset_count;
   msg->head_pose = poseToMsg(head_pose);
   msg->strand_offsets.assign(model.strand_offsets.begin(), model.strand_offsets.end());
+  msg->guide_strands = static_cast<uint32_t>(model.simulatedStrandCount());
   msg->positions.resize(3 * n);
   msg->saturation.resize(n);
   for (size_t i = 0; i < n; ++i) {

@@ -224,6 +224,16 @@ bool sceneFromRos(const ros::NodeHandle& pnh, io::SceneConfig* scene, std::strin
     if (!setFromXml(r, v, why)) return false;
     ++overrides;
   }
+  // ~follow_ratio: the short name of ~groom/follow_ratio (one strand in K simulated).
+  if (pnh.hasParam("follow_ratio")) {
+    XmlRpc::XmlRpcValue v;
+    pnh.getParam("follow_ratio", v);
+    for (const ParamRef& r : table) {
+      if (r.name != "groom.follow_ratio") continue;
+      if (!setFromXml(r, v, why)) return false;
+      ++overrides;
+    }
+  }
   // Analytic obstacles: ~obstacles, a list of spec strings, replaces the scene's list.
   if (pnh.hasParam("obstacles")) {
     XmlRpc::XmlRpcValue v;

@@ -26,6 +26,7 @@ namespace io {
 std::string RunSummary::toJson() const {
   JsonObject o;
   o.add("strands", strands)
+      .add("guide_strands", guide_strands)
       .add("strands_skipped", strands_skipped)
       .add("bend_stabilized_strands", bend_stabilized_strands)
       .add("particles", particles)
@@ -712,6 +713,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
       !buildObstacleField(scene, model, frames, &obstacles, &s.sdf_build_s, why))
     return false;
   s.strands = model.strandCount();
+  s.guide_strands = model.simulatedStrandCount();
   s.strands_skipped = static_cast<int>(import_report.skipped.size());
   s.bend_stabilized_strands = model.bend_stabilized_strands;
   s.particles = model.particleCount();

@@ -19,7 +19,8 @@ const char* kUsage =
     "usage: wet_curly_hair_run [--scene FILE.yaml] [--seconds T] [--motion NAME[:key=value,...]]\n"
     "                          [--json OUT.json] [--hair-frames DIR] [--hair-stride N]\n"
     "                          [--strands N] [--particles N] [--length M] [--curl-radius M]\n"
-    "                          [--curl-pitch M] [--seed S] [--set NAME=VALUE]... [--print-scene]\n"
+    "                          [--curl-pitch M] [--seed S] [--follow-ratio K]\n"
+    "                          [--set NAME=VALUE]... [--print-scene]\n"
     "                          [--saturation ROOT,TIP] [--cohesion ours|lin|kim|off]\n"
     "                          [--obstacle sphere:x=..,y=..,z=..,r=..]... (also box:, plane:)\n"
     "                          [--obstacle-map FILE.bt|FILE.ot] [--obstacle-map-offset x,y,z]\n"
@@ -210,6 +211,7 @@ Parsed parseSceneFlag(Arguments* args, CommandLine* cl, std::string* why) {
       {"--curl-radius", "groom.curl_radius_m"},
       {"--curl-pitch", "groom.curl_pitch_m"},
       {"--seed", "groom.seed"},
+      {"--follow-ratio", "groom.follow_ratio"},
       {"--sdf-resolution", "obstacle_map.resolution_m"},
       {"--substep", "solver.integrator.substep_s"},
       {"--threads", "solver.integrator.threads"}};

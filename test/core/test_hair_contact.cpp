@@ -1,4 +1,4 @@
-// Hair-hair contact (hair_contact.h, docs/physics.md §11): the pair law against its closed form,
+// Hair-hair contact (hair_contact.h, docs/hair_contact.md): the pair law against its closed form,
 // the ramp and taper, Iben's pruning per length, momentum kept pair by pair, the same forces for
 // any thread count, and three scenes with analytic answers: two strands thrown at each other stop
 // at the contact distance, a strand dropped across another rests on it, and neither the ramp nor

@@ -15,6 +15,7 @@
 #include <new>
 #include <vector>
 
+#include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
@@ -150,7 +151,8 @@ HeapCalls heapCallsDuring(F&& f) {
 void escape(void* p) { asm volatile("" : : "g"(p) : "memory"); }
 
 /// Heap calls made by `steps` steps of the scene after `warmup` steps.
-HeapCalls heapCallsInSteps(const std::string& method, int threads, int warmup, int steps) {
+HeapCalls heapCallsInSteps(const std::string& method, int threads, int warmup, int steps,
+                           int follow_ratio = 1) {
   SolverConfig c;
   c.integrator.method = method;
   c.integrator.substep_s = method == "explicit" ? 2e-4 : 1.0 / 240;
@@ -159,8 +161,9 @@ HeapCalls heapCallsInSteps(const std::string& method, int threads, int warmup, i
   g.strands = 40;
   HairModel model;
   std::string why;
-  EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), GroomConfig().linear_density_kg_per_m,
-                         HeadShape(), c, &model, &why))
+  EXPECT_TRUE(buildFollowerModel(generateGroom(g, EllipsoidShape()),
+                                 GroomConfig().linear_density_kg_per_m, follow_ratio, HeadShape(),
+                                 c, &model, &why))
       << why;
   Obstacles obstacles;
   AnalyticObstacle sphere;
@@ -294,6 +297,14 @@ TEST(SolverAllocations, AStepAllocatesNothing) {
       EXPECT_EQ(calls.allocations, 0) << method << ", " << threads << " thread(s)";
       EXPECT_EQ(calls.frees, 0) << method << ", " << threads << " thread(s)";
     }
+  }
+}
+
+TEST(SolverAllocations, AStepWithFollowersAllocatesNothing) {
+  for (int threads : {1, 2}) {
+    const HeapCalls calls = heapCallsInSteps("midpoint", threads, 3, 10, 4);
+    EXPECT_EQ(calls.allocations, 0) << threads << " thread(s)";
+    EXPECT_EQ(calls.frees, 0) << threads << " thread(s)";
   }
 }
 

@@ -59,6 +59,10 @@ TEST(Scene, BadValuesAreRefusedWithTheKeyNamed) {
   expectRefused("groom: {linear_density_kg_per_m: 0}", "groom.linear_density_kg_per_m");
   expectRefused("groom: {particles: 0}", "groom.particles");
   expectRefused("groom: {strands: 2.5}", "groom.strands");
+  expectRefused("groom: {follow_ratio: 0}", "groom.follow_ratio");
+  expectRefused("groom: {follow_ratio: -4}", "groom.follow_ratio");
+  expectRefused("groom: {follow_ratio: 2.5}", "groom.follow_ratio");
+  expectRefused("groom: {follow_ratio: many}", "groom.follow_ratio");
   expectRefused("groom: {stranz: 10}", "groom.stranz");
   expectRefused("solver: {stretch: {stiffnes_n_per_m: 1}}", "solver.stretch.stiffnes_n_per_m");
   expectRefused("motion: {type: wobble}", "motion.type");
@@ -271,4 +275,70 @@ TEST(Scene, WaterSectionRoundTripsAndRefusesBadSpecsWithTheFieldNamed) {
   expectRefused("water: {dryers: 'box:hz=1'}", "water.dryers: must be a list");
   expectRefused("water: {capacity_kg_per_m: -1}", "water.capacity_kg_per_m");
   expectRefused("water: {drying: 1}", "water.drying: unknown key");
+}
+
+TEST(Scene, FollowRatioAppliesToAGroomFileByTheSameRule) {
+  // The generated groom written as a .hair file and read back: the same guides (farthest-point
+  // sampling on the file's roots) as the generated groom at the same follow ratio.
+  SceneConfig scene;
+  scene.groom.strands = 60;
+  scene.groom.follow_ratio = 4;
+  HairModel generated;
+  std::string why;
+  ASSERT_TRUE(buildSceneModel(scene, &generated, &why)) << why;
+  EXPECT_EQ(generated.strandCount(), 60);
+  EXPECT_EQ(generated.simulatedStrandCount(), 15);
+  Groom groom;
+  ASSERT_TRUE(makeGroom(scene, &groom, &why)) << why;
+  const std::string path = ::testing::TempDir() + "wch_test_scene_followers.hair";
+  ASSERT_TRUE(
+      writeHairFile(path, groomPositionsToHair(groom.strand_offsets, groom.points, nullptr), &why))
+      << why;
+  scene.groom_file.file = path;
+  HairModel imported;
+  ASSERT_TRUE(buildSceneModel(scene, &imported, &why)) << why;
+  EXPECT_EQ(imported.strandCount(), 60);
+  ASSERT_EQ(imported.simulatedStrandCount(), 15);
+  EXPECT_EQ(imported.followers.source_strand, generated.followers.source_strand);
+  // Strands of different particle counts follow each other by normalized arc length.
+  HairFileData d;
+  d.strand_offsets = {0};
+  const Vec3 top(0, 0, 0.111);
+  addLine(&d, top, Vec3(1, 0, 0), 0.05, 8);
+  addLine(&d, top, Vec3(0, 1, 0), 0.30, 40);
+  addLine(&d, top, Vec3(-1, 0, 0), 0.12, 16);
+  addLine(&d, top, Vec3(0, -1, 0), 0.20, 5);
+  ASSERT_TRUE(writeHairFile(path, d, &why)) << why;
+  scene.groom.follow_ratio = 2;
+  HairModel mixed;
+  ASSERT_TRUE(buildSceneModel(scene, &mixed, &why)) << why;
+  ASSERT_EQ(mixed.strandCount(), 4)
+      << mixed.strandSize(0) << " " << mixed.strandSize(1) << " " << mixed.strandSize(2) << " "
+      << mixed.strandSize(3) << " " << mixed.strandSize(4);
+  EXPECT_EQ(mixed.simulatedStrandCount(), 2);
+  const FollowerMap& f = mixed.followers;
+  for (int s = f.guide_strands; s < 4; ++s) {
+    for (int i = 0; i < mixed.strandSize(s); ++i) {
+      const size_t e =
+          static_cast<size_t>(mixed.strandBegin(s) + i - mixed.strandBegin(f.guide_strands)) * 3;
+      const int g = f.guide[(s - f.guide_strands) * 3];
+      // Sample of particle i on its first guide: a segment of that guide, at the same fraction
+      // of the length (a straight line: arc length is the distance from the root; the file holds
+      // floats).
+      ASSERT_GE(f.sample_index[e], mixed.strand_offsets[g]);
+      ASSERT_LT(f.sample_index[e] + 1, mixed.strand_offsets[g + 1]);
+      const double u = static_cast<double>(i) / (mixed.strandSize(s) - 1);
+      const uint32_t a = f.sample_index[e];
+      const double ug =
+          ((1.0 - f.sample_fraction[e]) *
+               (mixed.rest_position_head[a] - mixed.rest_position_head[mixed.strandBegin(g)])
+                   .norm() +
+           f.sample_fraction[e] *
+               (mixed.rest_position_head[a + 1] - mixed.rest_position_head[mixed.strandBegin(g)])
+                   .norm()) /
+          mixed.strand_length_m[g];
+      EXPECT_NEAR(ug, u, 1e-6) << "strand " << s << " particle " << i;
+    }
+  }
+  std::remove(path.c_str());
 }

@@ -25,6 +25,7 @@ TEST(NodeTopics, StrandsHaveConsistentSizesAndStepOnTheFrameGrid) {
     EXPECT_EQ(wch_test::strandsProblem(*m), "");
     EXPECT_EQ(m->strand_offsets.size(), 25u);        // ~groom/strands = 24
     EXPECT_EQ(m->strand_offsets.back(), 24u * 16u);  // ~groom/particles = 16
+    EXPECT_EQ(m->guide_strands, 8u);                 // ~follow_ratio = 3: 8 guides, 16 followers
     EXPECT_EQ(m->header.frame_id, "world");
     EXPECT_EQ(m->wet_positions.size(), m->positions.size());  // cohesion on by default
     for (float x : m->positions) ASSERT_TRUE(std::isfinite(x));
@@ -57,13 +58,18 @@ TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
   EXPECT_EQ(s.repaired_strands, 0u);
   EXPECT_EQ(s.header.frame_id, "world");
   // Every solver stage is named, timed and counted; the integrate stage ran on every
-  // particle-substep of the frame.
-  ASSERT_EQ(s.stage_names.size(), 11u);
-  ASSERT_EQ(s.stage_times_s.size(), 11u);
-  ASSERT_EQ(s.stage_particles.size(), 11u);
+  // particle-substep of the 8 guides (~follow_ratio 3), the followers stage once per frame on
+  // the 16 followers' particles.
+  ASSERT_EQ(s.stage_names.size(), 13u);
+  ASSERT_EQ(s.stage_times_s.size(), 13u);
+  ASSERT_EQ(s.stage_particles.size(), 13u);
   EXPECT_EQ(s.stage_names[4], "integrate");
-  EXPECT_EQ(s.stage_particles[4], uint64_t(s.substeps) * uint64_t(s.particles));
+  EXPECT_EQ(s.stage_particles[4], uint64_t(s.substeps) * 8u * 16u);
   EXPECT_GT(s.stage_times_s[4], 0.0);
+  EXPECT_EQ(s.stage_names[11], "hair_contact");
+  EXPECT_EQ(s.stage_particles[11], 0u);  // off in this scene: nothing ran
+  EXPECT_EQ(s.stage_names[12], "followers");
+  EXPECT_EQ(s.stage_particles[12], 16u * 16u);
   // Overhead of the node itself against the solver step, averaged over 2 s of statuses.
   double step = 0, conv = 0, pub = 0, tf = 0;
   int n = 0;

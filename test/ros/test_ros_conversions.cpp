@@ -68,6 +68,28 @@ TEST(Conversions, StrandsMessageSizesAndValues) {
   EXPECT_TRUE(m.wet_positions.empty());
 }
 
+TEST(Conversions, StrandsMessageSaysWhichStrandsAreGuides) {
+  // Every strand simulated: all are guides.
+  Strands m;
+  const HairModel all = smallModel();
+  stateToStrandsMsg(all, makeState(all, Pose(), Twist()), true, std_msgs::Header(), 1, 0, Pose(),
+                    &m);
+  EXPECT_EQ(m.guide_strands, 5u);
+  // One in 3: strands [0, 4) are the guides, the 6 followers are published with them.
+  io::SceneConfig scene = io::builtinScene();
+  scene.groom.strands = 10;
+  scene.groom.particles = 7;
+  scene.groom.follow_ratio = 3;
+  HairModel model;
+  std::string why;
+  ASSERT_TRUE(io::buildSceneModel(scene, &model, &why)) << why;
+  stateToStrandsMsg(model, makeState(model, Pose(), Twist()), true, std_msgs::Header(), 1, 0,
+                    Pose(), &m);
+  EXPECT_EQ(m.guide_strands, 4u);
+  EXPECT_EQ(m.strand_offsets.size(), 11u);
+  EXPECT_EQ(m.positions.size(), 3u * 70u);
+}
+
 TEST(Conversions, MarkerIsOneLineListWithTwoColouredPointsPerEdge) {
   const HairModel model = smallModel();
   HairState state = makeState(model, Pose(), Twist());

@@ -51,6 +51,33 @@ TEST(OfflineRun, SummaryOfAShortNod) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
 }
 
+TEST(OfflineRun, FollowRatioReportsOutputAndGuideStrandsAndWritesEveryStrand) {
+  SceneConfig scene = builtinScene();
+  scene.groom.strands = 40;
+  scene.groom.follow_ratio = 3;  // ceil(40 / 3) = 14 guides
+  scene.run.seconds = 0.25;
+  scene.saturation.root = 0.5;
+  scene.saturation.tip = 1.0;
+  RunOptions options;
+  options.hair_frames_dir = WCH_BINARY_DIR "/test_offline_run_follow_frames";
+  options.hair_stride = 15;
+  RunSummary s;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &s, &why)) << why;
+  EXPECT_EQ(s.strands, 40);
+  EXPECT_EQ(s.guide_strands, 14);
+  EXPECT_EQ(s.particles, 40 * 32);
+  EXPECT_TRUE(s.finite);
+  EXPECT_GT(s.clump_distance_m, 0.0);
+  // The head penetration is measured on every output strand, followers too.
+  EXPECT_LE(s.max_head_penetration_after_first_step_m, 1e-9);
+  HairFileData frame;
+  ASSERT_TRUE(readHairFile(options.hair_frames_dir + "/frame_00015.hair", &frame, &why)) << why;
+  EXPECT_EQ(frame.strandCount(), 40);
+  const std::string json = s.toJson();
+  EXPECT_NE(json.find("\"guide_strands\": 14"), std::string::npos) << json.substr(0, 300);
+}
+
 TEST(OfflineRun, ReportsStrandsTooCoarseForTheBendingSmoothingAndTheSubstepItUsed) {
   // 16 particles on 25 cm: 17 mm edges, and alpha_b = 48 mm is under 4 of them on every strand;
   // 32 particles: 8 mm edges, none. The explicit substep follows the edge; the implicit default

@@ -33,6 +33,9 @@ struct EllipsoidShape {
   Vec3 radii_m = Vec3(0.095, 0.078, 0.11);  ///< semi-axes along head x, y, z, m.
 };
 
+/// Largest groom.follow_ratio (one guide per this many strands).
+constexpr int kMaxFollowRatio = 1000000;
+
 /// Parameters of the generated groom (scene YAML section `groom`).
 struct GroomConfig {
   int strands = 200;            ///< number of strands.
@@ -47,6 +50,9 @@ struct GroomConfig {
   double linear_density_kg_per_m = 0.0124;
   double scalp_half_angle_deg = 70;         ///< roots lie within this angle of the scalp axis.
   Vec3 scalp_axis = Vec3(-0.25, 0.0, 1.0);  ///< centre direction of the scalp patch (head frame).
+  /// K: one strand in K is simulated (a guide), the others follow their nearest guides
+  /// (followers.h); 1 simulates every strand. Applies to a groom read from a .hair file too.
+  int follow_ratio = 1;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

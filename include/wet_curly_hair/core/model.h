@@ -12,6 +12,32 @@
 
 namespace wet_curly_hair {
 
+/// Guides and followers (followers.h): with a follow ratio K > 1 the model's strands are ordered
+/// guides first: strands [0, guide_strands) are simulated, the others are followers, placed after
+/// each step from their kFollowerGuides nearest guides in root space. Empty (guide_strands 0)
+/// when every strand is simulated.
+struct FollowerMap {
+  int guide_strands = 0;  ///< simulated strands; 0: every strand (no followers).
+  /// Per model strand, its index in the groom it was built from (guides first reorders them).
+  std::vector<int> source_strand;
+  /// Per follower strand f (model strand guide_strands + f): kFollowerGuides guides (model strand
+  /// indices) and their root-space weights (sum 1; 0 for a guide that does not count).
+  std::vector<int> guide;
+  std::vector<double> weight;
+  /// Per follower particle p (from the first follower particle) and guide n, at entry
+  /// p * kFollowerGuides + n: the guide's particle (global index) that starts the segment holding
+  /// the follower's normalized arc length, and the fraction along that segment.
+  std::vector<uint32_t> sample_index;
+  std::vector<double> sample_fraction;
+  /// Per guide particle (edge slots, the last particle's unused): the frame of the edge on the
+  /// rest shape smoothed over the core smoothing length (beta_core), transported from the root
+  /// frame; a guide's current frames against these turn each follower's offset from it.
+  Mat3List guide_rest_frame;
+  /// Per strand: the rotation that takes the strand's helix (helix_edge) to its rest axis, for
+  /// the exaggerated rest shape (exaggeratedRest).
+  Mat3List curl_turn;
+};
+
 /// Constant model. Per-particle arrays are indexed by the global particle index; per-edge arrays
 /// too, by the edge's root-side particle (the slot of each strand's last particle is unused).
 struct HairModel {
@@ -65,7 +91,13 @@ struct HairModel {
   /// largest possible extent (cohesionGridNodeBound); 0 when the evaluation is "exact".
   size_t cohesion_grid_nodes = 0;
 
+  FollowerMap followers;  ///< guides and followers; empty when every strand is simulated.
+
   int strandCount() const { return static_cast<int>(strand_offsets.size()) - 1; }
+  /// Strands the dynamics advances: the guides, or every strand when there are no followers.
+  int simulatedStrandCount() const {
+    return followers.guide_strands > 0 ? followers.guide_strands : strandCount();
+  }
   int particleCount() const { return static_cast<int>(rest_position_head.size()); }
   int strandBegin(int s) const { return static_cast<int>(strand_offsets[s]); }
   int strandSize(int s) const {

@@ -41,6 +41,7 @@ enum Stage : int {
   kStageCohesion,           ///< stable cohesion display positions (per step)
   kStageCohesionForces,     ///< force-based baselines lin/kim (per substep, all strands)
   kStageHairContact,        ///< hair-hair contact forces (per substep, spheres; hair_contact.h)
+  kStageFollowers,          ///< followers placed from their guides (per step, followers.h)
   kStageCount
 };
 

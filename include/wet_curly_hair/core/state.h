@@ -169,6 +169,10 @@ struct HairState {
   Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
   std::vector<double> density;  ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
   Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
+  /// Per guide particle (followers.h; empty without followers), head frame: its position, its
+  /// exaggerated rest position (m), and the rotation of its edge's smoothed frame from rest.
+  Vec3List guide_position_head, guide_rest_head;
+  Mat3List guide_rotation;
   NeighborGrid grid;
   CohesionNodeGrid cohesion_grid;
   HairContactState hair_contact;

@@ -83,7 +83,8 @@ enum Measurement {
 const char* measurementName(Measurement m);
 
 struct RunSummary {
-  int strands = 0;          ///< strands simulated.
+  int strands = 0;          ///< output strands (guides and followers).
+  int guide_strands = 0;    ///< strands simulated (groom.follow_ratio; all of them at 1).
   int strands_skipped = 0;  ///< strands of the groom file not simulated (HairImportReport).
   /// Strands too coarse for the configured alpha_b or c_b, raised to the flutter bounds
   /// (HairModel::bend_stabilized_strands).

@@ -1,0 +1,253 @@
+// What a follower costs: the built-in scene (wet toward the tips, nodding) with a sphere behind
+// the head, run at follow ratios K (one strand in K simulated, the others interpolated,
+// followers.h) against the full simulation of the same groom (K = 1). Every follower is compared
+// with the same strand (same root) of the full run, particle by particle, at every compared frame:
+// RMS and max position error over the whole run and of the tips alone, in % of the strand's
+// length. Also the tip curl radius and the clump distance of each run (all output strands), and
+// the cost: wall seconds of step() per simulated second (median of --runs runs). Writes
+// DIR/NAME.csv and, with gnuplot, DIR/NAME.png (NAME: --name, default followers) (cost against
+// error, K as the knob), and a Markdown table on stdout with the CPU. usage: bench_followers
+// [--strands N] [--ks 1,2,4,8,16] [--seconds T] [--runs N] [--threads N]
+//                        [--compare-stride F] [--out DIR] [--name NAME] [--dry] [--sag-free]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/io/scene_setup.h"
+#include "wet_curly_hair/runner/offline_run.h"
+
+using namespace wet_curly_hair;
+
+namespace {
+
+struct Options {
+  int strands = 400;
+  std::vector<int> ks = {1, 2, 4, 8, 16};
+  double seconds = 3.0;
+  int runs = 3;
+  int threads = 1;
+  int compare_stride = 1;  ///< compare every F-th frame (memory: the reference keeps those)
+  std::string out = ".";
+  std::string name = "followers";  ///< --name: DIR/NAME.csv, DIR/NAME.png
+  bool dry = false;  ///< --dry: saturation 0 everywhere (no wet effects) instead of the scene's
+  /// --sag-free: the groom starts at equilibrium (solver.sag_free) instead of falling from it.
+  bool sag_free = false;
+};
+
+/// The first "model name" line of /proc/cpuinfo, and whether the flags list avx512f.
+std::string cpuLine() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line, model = "unknown CPU";
+  bool avx512 = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) == 0 && model == "unknown CPU")
+      model = line.substr(line.find(':') + 2);
+    if (line.rfind("flags", 0) == 0 && line.find(" avx512f") != std::string::npos) avx512 = true;
+  }
+  return model + (avx512 ? ", avx512f" : ", no avx512f");
+}
+
+io::SceneConfig benchScene(const Options& o, int k) {
+  io::SceneConfig scene = io::builtinScene();
+  scene.groom.strands = o.strands;
+  scene.groom.follow_ratio = k;
+  scene.run.seconds = o.seconds;
+  scene.solver.integrator.threads = o.threads;
+  if (o.dry) scene.saturation.root = scene.saturation.tip = 0.0;
+  scene.solver.sag_free = o.sag_free;
+  AnalyticObstacle sphere;  // behind the head, where the nodding hair swings into it
+  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
+  sphere.radius_m = 0.05;
+  scene.obstacles.push_back(sphere);
+  return scene;
+}
+
+struct Row {
+  int k = 0, guides = 0;
+  double cost = 0.0, follower_cost = 0.0;  ///< wall s per simulated s; the followers stage's
+  double rms = 0.0, max = 0.0, tip_rms = 0.0, tip_max = 0.0;  ///< fractions of strand length
+  double curl_radius_m = 0.0, clump_m = 0.0;
+  bool finite = true;
+};
+
+/// Runs the scene at follow ratio k `runs` times; compares the first run's followers with
+/// `reference` (frames of the full run, groom strand order; empty: this is the reference, stored
+/// into *store).
+Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
+         std::vector<Vec3List>* store) {
+  const io::SceneConfig scene = benchScene(o, k);
+  HairModel model;
+  std::string why;
+  if (!io::buildSceneModel(scene, &model, &why)) {
+    std::fprintf(stderr, "bench_followers: %s\n", why.c_str());
+    std::exit(2);
+  }
+  const FollowerMap& f = model.followers;
+  const int first_follower = f.guide_strands > 0 ? f.guide_strands : model.strandCount();
+  double sum2 = 0.0, tip_sum2 = 0.0, max = 0.0, tip_max = 0.0;
+  long count = 0, tips = 0;
+  io::RunOptions options;
+  options.measure = false;
+  options.tangles = false;
+  options.on_frame = [&](int frame, const HairState& state) {
+    if (frame % o.compare_stride != 0) return;
+    if (store) {  // the full run: groom order is model order
+      store->push_back(state.position);
+      return;
+    }
+    const Vec3List& ref = (*reference)[frame / o.compare_stride];
+    for (int s = first_follower; s < model.strandCount(); ++s) {
+      const int src = f.source_strand[s];
+      const int n = model.strandSize(s), begin = model.strandBegin(s);
+      const int ref_begin = static_cast<int>(src) * n;  // the groom: equal particle counts
+      for (int i = 0; i < n; ++i) {
+        const double e =
+            (state.position[begin + i] - ref[ref_begin + i]).norm() / model.strand_length_m[s];
+        sum2 += e * e;
+        max = std::max(max, e);
+        ++count;
+      }
+      const double e = (state.position[begin + n - 1] - ref[ref_begin + n - 1]).norm() /
+                       model.strand_length_m[s];
+      tip_sum2 += e * e;
+      tip_max = std::max(tip_max, e);
+      ++tips;
+    }
+  };
+  Row row;
+  row.k = k;
+  row.guides = model.simulatedStrandCount();
+  std::vector<double> costs, follower_costs;
+  for (int r = 0; r < o.runs; ++r) {
+    io::RunSummary s;
+    if (!io::runScene(scene, options, &s, &why)) {
+      std::fprintf(stderr, "bench_followers: %s\n", why.c_str());
+      std::exit(2);
+    }
+    costs.push_back(s.wall_s / s.sim_s);
+    follower_costs.push_back(s.stage_cpu_s[kStageFollowers] / s.sim_s);
+    if (r == 0) {
+      row.curl_radius_m = s.curl_radius_tip_m;
+      row.clump_m = s.clump_distance_m;
+      row.finite = s.finite;
+      options.on_frame = nullptr;  // the runs after the first are timed only
+      store = nullptr;
+    }
+  }
+  std::sort(costs.begin(), costs.end());
+  std::sort(follower_costs.begin(), follower_costs.end());
+  row.cost = costs[costs.size() / 2];
+  row.follower_cost = follower_costs[follower_costs.size() / 2];
+  row.rms = count ? std::sqrt(sum2 / count) : 0.0;
+  row.max = max;
+  row.tip_rms = tips ? std::sqrt(tip_sum2 / tips) : 0.0;
+  row.tip_max = tip_max;
+  return row;
+}
+
+void plot(const std::string& dir, const std::string& name, const std::string& title) {
+  if (std::system("command -v gnuplot > /dev/null 2>&1") != 0) {
+    std::printf("gnuplot not found: no %s.png\n", name.c_str());
+    return;
+  }
+  const std::string csv = dir + "/" + name + ".csv";
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 900,600\nset output '" << dir << "/" << name << ".png'\n"
+     << "set datafile separator ','\nset key autotitle columnhead\nset logscale x\n"
+     << "set xlabel 'cost: wall s of step() per simulated s'\n"
+     << "set ylabel 'follower error over the run, % of strand length'\nset yrange [0:*]\n"
+     << "set title '" << title << "' noenhanced\nset key top right\n"
+     << "plot '" << csv << "' using 4:6 with linespoints pt 7 title 'RMS', "
+     << "'' using 4:8 with linespoints pt 7 title 'RMS, tips', "
+     << "'' using 4:6:(sprintf('K=%d', $2)) with labels offset 0,1 "
+        "notitle\n";
+  const std::string path = dir + "/" + name + ".gp";
+  std::ofstream(path) << gp.str();
+  if (std::system(("gnuplot '" + path + "'").c_str()) != 0)
+    std::printf("gnuplot failed on %s\n", path.c_str());
+}
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int a = 1; a < argc; a += 2) {
+    const std::string flag = argv[a];
+    if (flag == "--dry" || flag == "--sag-free") {
+      (flag == "--dry" ? o->dry : o->sag_free) = true;
+      --a;
+      continue;
+    }
+    if (a + 1 >= argc) return false;
+    const std::string v = argv[a + 1];
+    if (flag == "--strands") {
+      o->strands = std::atoi(v.c_str());
+    } else if (flag == "--ks") {
+      o->ks.clear();
+      std::stringstream ss(v);
+      for (std::string item; std::getline(ss, item, ',');) o->ks.push_back(std::atoi(item.c_str()));
+    } else if (flag == "--seconds") {
+      o->seconds = std::atof(v.c_str());
+    } else if (flag == "--runs") {
+      o->runs = std::max(1, std::atoi(v.c_str()));
+    } else if (flag == "--threads") {
+      o->threads = std::atoi(v.c_str());
+    } else if (flag == "--compare-stride") {
+      o->compare_stride = std::max(1, std::atoi(v.c_str()));
+    } else if (flag == "--name") {
+      o->name = v;
+    } else if (flag == "--out") {
+      o->out = v;
+    } else {
+      return false;
+    }
+  }
+  return o->strands > 0 && o->seconds > 0.0 && !o->ks.empty();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, &o)) {
+    std::fprintf(
+        stderr,
+        "usage: bench_followers [--strands N] [--ks 1,2,4,8,16] [--seconds T] [--runs N]"
+        " [--threads N] [--compare-stride F] [--out DIR] [--name NAME] [--dry] [--sag-free]\n");
+    return 2;
+  }
+  const std::string cpu = cpuLine();
+  std::printf(
+      "CPU: %s; %d strands x 32, %g s of the built-in %s nod with a sphere%s, %d thread(s),"
+      " cost the median of %d runs\n\n",
+      cpu.c_str(), o.strands, o.seconds, o.dry ? "dry" : "wet",
+      o.sag_free ? ", sag-free start" : "", o.threads, o.runs);
+  std::vector<Vec3List> reference;
+  std::vector<Row> rows;
+  rows.push_back(runK(o, 1, nullptr, &reference));
+  for (int k : o.ks)
+    if (k > 1) rows.push_back(runK(o, k, &reference, nullptr));
+  std::ofstream csv(o.out + "/" + o.name + ".csv");
+  csv << "strands,K,guides,cost_s_per_s,followers_cpu_s_per_s,rms_pct,max_pct,tip_rms_pct,"
+         "tip_max_pct,curl_radius_tip_mm,clump_distance_mm,finite\n";
+  std::printf(
+      "| K | guides | cost, s/s | of it followers, s/s | RMS %% | max %% | tip RMS %% | tip max %% "
+      "| curl radius, mm | clump distance, mm |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows) {
+    csv << o.strands << "," << r.k << "," << r.guides << "," << r.cost << "," << r.follower_cost
+        << "," << 100 * r.rms << "," << 100 * r.max << "," << 100 * r.tip_rms << ","
+        << 100 * r.tip_max << "," << 1e3 * r.curl_radius_m << "," << 1e3 * r.clump_m << ","
+        << (r.finite ? 1 : 0) << "\n";
+    std::printf("| %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f |\n", r.k,
+                r.guides, r.cost, r.follower_cost, 100 * r.rms, 100 * r.max, 100 * r.tip_rms,
+                100 * r.tip_max, 1e3 * r.curl_radius_m, 1e3 * r.clump_m);
+  }
+  csv.close();
+  plot(o.out, o.name,
+       "followers against the full simulation, " + std::to_string(o.strands) + " strands; " + cpu);
+  return 0;
+}

@@ -1,0 +1,60 @@
+// Guides and followers: simulate one strand in K (the guides), place the others (followers)
+// after each step from their nearest guides in root space (docs/followers.md).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "wet_curly_hair/core/config.h"
+#include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/model.h"
+#include "wet_curly_hair/core/obstacles.h"
+#include "wet_curly_hair/core/state.h"
+#include "wet_curly_hair/core/types.h"
+
+namespace wet_curly_hair {
+
+/// Guides each follower is interpolated from.
+constexpr int kFollowerGuides = 3;
+
+/// Farthest-point sampling of `count` roots (head frame): the first is root 0, each next one the
+/// root farthest from those already chosen (the lowest index on a tie). Deterministic; returns
+/// the chosen indices in ascending order. count is clamped to [1, roots.size()].
+std::vector<int> selectGuides(const Vec3List& roots, int count);
+
+/// Root-space weights of a follower from the distances d[0] <= d[1] <= ... (m, `count` of them,
+/// sorted) to its nearest guides: w[i] for i < min(count, kFollowerGuides), summing to 1.
+/// Franke-Nielson's modified Shepard weights w_i ~ ((R - d_i) / (R d_i))^2 with R the distance of
+/// the next guide (d[kFollowerGuides], or 2 d[count - 1] with fewer guides), so that a guide's
+/// weight falls to 0 where it stops being one of the nearest: the weights are continuous over
+/// the scalp. A follower on a guide's root (d[0] below 1e-9 m) copies that guide alone.
+void followerWeights(const double* d, int count, double* w);
+
+/// Builds the model of a groom of which one strand in follow_ratio is simulated: guides chosen
+/// from the roots by selectGuides (ceil(N / K) of them), the model's strands ordered guides
+/// first (FollowerMap::source_strand gives each one's groom index), each follower's guides,
+/// weights and arc-length samples fixed here. follow_ratio 1 is buildModel. False with a reason
+/// naming groom.follow_ratio or the field buildModel refused; *model unchanged then.
+bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int follow_ratio,
+                        const HeadShape& head, const SolverConfig& config, HairModel* model,
+                        std::string* why);
+
+/// The rest shape of strand s exaggerated toward its wet helix by its saturation `sigma` (one per
+/// particle), head frame, into out[0 .. size). Each rest edge e turns toward the helix edge h of
+/// eq. (6) (carried to the rest axis, FollowerMap::curl_turn) by b = k_w sigma / (k_w sigma +
+/// k_b), the share of the curl spring in the two springs that pull the edge (spring mode, A10),
+/// keeping its length; dry strands, or curl off, give the rest shape exactly.
+void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
+                     Vec3* out);
+
+/// Places every follower after a step, in the head frame (head_pose): the weighted sum over its
+/// guides of the guide's point at the follower particle's normalized arc length plus the
+/// follower's offset from that point on the exaggerated rest shapes, turned by the rotation of
+/// the guide's frame there (edge frames of the curve smoothed over the core smoothing length,
+/// current against rest); then pushed out of the head (collision offset, as the solver) and the
+/// obstacles (world frame; null: none). Velocities are the change of position over dt_s (none when
+/// dt_s is 0). Allocates nothing. No-op without followers.
+void updateFollowers(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
+                     const Obstacles* obstacles, double dt_s, int threads, HairState* state);
+
+}  // namespace wet_curly_hair

@@ -1,0 +1,306 @@
+#include "wet_curly_hair/core/followers.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "parallel.h"
+#include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/smoothing.h"
+#include "wet_curly_hair/core/wet_kernels.h"
+
+namespace wet_curly_hair {
+
+std::vector<int> selectGuides(const Vec3List& roots, int count) {
+  const int n = static_cast<int>(roots.size());
+  count = std::max(1, std::min(count, n));
+  std::vector<int> chosen;
+  if (n == 0) return chosen;
+  std::vector<double> nearest(n, std::numeric_limits<double>::infinity());
+  int next = 0;
+  for (int c = 0; c < count; ++c) {
+    chosen.push_back(next);
+    int best = -1;
+    double best_d = -1.0;
+    nearest[next] = -1.0;  // chosen: never again, even where roots coincide
+    for (int i = 0; i < n; ++i) {
+      if (nearest[i] < 0.0) continue;
+      nearest[i] = std::min(nearest[i], (roots[i] - roots[next]).squaredNorm());
+      if (nearest[i] > best_d) best_d = nearest[i], best = i;  // strict: lowest index on a tie
+    }
+    next = best;
+  }
+  std::sort(chosen.begin(), chosen.end());
+  return chosen;
+}
+
+void followerWeights(const double* d, int count, double* w) {
+  const int k = std::min(count, kFollowerGuides);
+  if (k <= 0) return;
+  std::fill(w, w + k, 0.0);
+  if (d[0] < 1e-9) {
+    w[0] = 1.0;
+    return;
+  }
+  const double r = count > kFollowerGuides ? d[kFollowerGuides] : 2.0 * d[count - 1];
+  double sum = 0.0;
+  for (int i = 0; i < k; ++i) {
+    const double q = d[i] < r ? (r - d[i]) / (r * d[i]) : 0.0;
+    w[i] = q * q;
+    sum += w[i];
+  }
+  if (!(sum > 0.0)) {  // every guide as far as the next one: equal shares
+    std::fill(w, w + k, 1.0 / k);
+    return;
+  }
+  for (int i = 0; i < k; ++i) w[i] /= sum;
+}
+
+namespace {
+
+/// The frames of a strand's edges (n - 1 of them) on its curve x smoothed with beta (eq. 2's
+/// filter), transported from the root frame; d is scratch of n - 1.
+void smoothedFrames(const Vec3* x, int n, const Mat3& root, double beta, Vec3* d, Mat3* frames) {
+  smoothDifferences(x, n, beta, d);
+  transportFrames(root, d, n - 1, frames);
+}
+
+/// Normalized arc length of each particle of strand s (rest shape), into u (0 at the root, 1 at
+/// the tip).
+void normalizedArcLength(const HairModel& m, int s, std::vector<double>* u) {
+  const int begin = m.strandBegin(s), n = m.strandSize(s);
+  u->assign(n, 0.0);
+  for (int i = 1; i < n; ++i)
+    (*u)[i] = (*u)[i - 1] +
+              (m.rest_position_head[begin + i] - m.rest_position_head[begin + i - 1]).norm();
+  const double total = (*u)[n - 1];
+  for (int i = 1; i < n; ++i) (*u)[i] = total > 0.0 ? (*u)[i] / total : 1.0;
+  (*u)[n - 1] = 1.0;
+}
+
+/// The k nearest guides of follower strand s and their weights.
+void nearestGuides(const HairModel& m, int s, int* guide, double* weight) {
+  const int guides = m.followers.guide_strands;
+  const Vec3 root = m.rest_position_head[m.strandBegin(s)];
+  constexpr int kKeep = kFollowerGuides + 1;
+  double best_d[kKeep];
+  int best_g[kKeep];
+  int kept = 0;
+  for (int g = 0; g < guides; ++g) {
+    const double d = (m.rest_position_head[m.strandBegin(g)] - root).norm();
+    if (kept == kKeep && d >= best_d[kKeep - 1]) continue;
+    int i = kept < kKeep ? kept++ : kKeep - 1;
+    for (; i > 0 && best_d[i - 1] > d; --i) best_d[i] = best_d[i - 1], best_g[i] = best_g[i - 1];
+    best_d[i] = d;
+    best_g[i] = g;
+  }
+  double w[kFollowerGuides] = {};
+  followerWeights(best_d, kept, w);
+  for (int n = 0; n < kFollowerGuides; ++n) {
+    guide[n] = n < kept ? best_g[n] : best_g[0];
+    weight[n] = n < kept ? w[n] : 0.0;
+  }
+}
+
+/// Guides, weights and arc-length samples of every follower; the curl turn of every strand.
+void attachFollowers(int guides, std::vector<int> source, HairModel* m) {
+  FollowerMap& f = m->followers;
+  f.guide_strands = guides;
+  f.source_strand = std::move(source);
+  const int strands = m->strandCount(), followers = strands - guides;
+  const int first = m->strandBegin(guides);
+  const size_t samples = static_cast<size_t>(m->particleCount() - first) * kFollowerGuides;
+  f.guide.assign(static_cast<size_t>(followers) * kFollowerGuides, 0);
+  f.weight.assign(static_cast<size_t>(followers) * kFollowerGuides, 0.0);
+  f.sample_index.assign(samples, 0);
+  f.sample_fraction.assign(samples, 0.0);
+  std::vector<std::vector<double>> guide_u(guides);
+  for (int g = 0; g < guides; ++g) normalizedArcLength(*m, g, &guide_u[g]);
+  std::vector<double> u;
+  for (int k = 0; k < followers; ++k) {
+    const int s = guides + k;
+    nearestGuides(*m, s, &f.guide[k * kFollowerGuides], &f.weight[k * kFollowerGuides]);
+    normalizedArcLength(*m, s, &u);
+    for (int n = 0; n < kFollowerGuides; ++n) {
+      const int g = f.guide[k * kFollowerGuides + n];
+      const std::vector<double>& ug = guide_u[g];
+      int a = 0;
+      for (int i = 0; i < static_cast<int>(u.size()); ++i) {
+        while (a + 2 < static_cast<int>(ug.size()) && ug[a + 1] <= u[i]) ++a;
+        const double span = ug[a + 1] - ug[a];
+        const double t = span > 0.0 ? std::clamp((u[i] - ug[a]) / span, 0.0, 1.0) : 0.0;
+        const size_t e = static_cast<size_t>(m->strandBegin(s) + i - first) * kFollowerGuides + n;
+        f.sample_index[e] = static_cast<uint32_t>(m->strandBegin(g) + a);
+        f.sample_fraction[e] = t;
+      }
+    }
+  }
+  f.guide_rest_frame.assign(first, Mat3::Identity());
+  Vec3List d(m->max_strand_size);
+  for (int g = 0; g < guides; ++g) {
+    const int begin = m->strandBegin(g), n = m->strandSize(g);
+    smoothedFrames(&m->rest_position_head[begin], n, m->root_frame_head[g], m->beta_core[g],
+                   d.data(), &f.guide_rest_frame[begin]);
+  }
+  f.curl_turn.assign(strands, Mat3::Identity());
+  for (int s = 0; s < strands; ++s) {
+    const Vec3 axis = m->rest_position_head[m->strandBegin(s) + m->strandSize(s) - 1] -
+                      m->rest_position_head[m->strandBegin(s)];
+    if (axis.norm() > 1e-12)
+      f.curl_turn[s] = helixToHairRotation(m->helix_axis[s], axis.normalized());
+  }
+}
+
+}  // namespace
+
+bool buildFollowerModel(const Groom& groom, double rho, int follow_ratio, const HeadShape& head,
+                        const SolverConfig& config, HairModel* model, std::string* why) {
+  if (follow_ratio < 1 || follow_ratio > kMaxFollowRatio) {
+    if (why) {
+      *why = "groom.follow_ratio: " + std::to_string(follow_ratio) +
+             " must be a whole number in [1, " + std::to_string(kMaxFollowRatio) + "]";
+    }
+    return false;
+  }
+  if (follow_ratio == 1) return buildModel(groom, rho, head, config, model, why);
+  if (!groom.validate(why)) return false;
+  const int strands = groom.strandCount();
+  const int guides = (strands + follow_ratio - 1) / follow_ratio;
+  if (guides >= strands) return buildModel(groom, rho, head, config, model, why);
+  Vec3List roots(strands);
+  for (int s = 0; s < strands; ++s) roots[s] = groom.points[groom.strand_offsets[s]];
+  std::vector<int> order = selectGuides(roots, guides);
+  std::vector<char> is_guide(strands, 0);
+  for (int g : order) is_guide[g] = 1;
+  for (int s = 0; s < strands; ++s)
+    if (!is_guide[s]) order.push_back(s);
+  Groom sorted;
+  sorted.points.reserve(groom.points.size());
+  for (int s : order) {
+    sorted.points.insert(sorted.points.end(), groom.points.begin() + groom.strand_offsets[s],
+                         groom.points.begin() + groom.strand_offsets[s + 1]);
+    sorted.strand_offsets.push_back(static_cast<uint32_t>(sorted.points.size()));
+    sorted.root_normals.push_back(groom.root_normals[s]);
+  }
+  HairModel m;
+  if (!buildModel(sorted, rho, head, config, &m, why)) return false;
+  attachFollowers(guides, std::move(order), &m);
+  *model = std::move(m);
+  return true;
+}
+
+void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
+                     Vec3* out) {
+  const int begin = model.strandBegin(s), n = model.strandSize(s);
+  const Vec3* rest = &model.rest_position_head[begin];
+  const double kw = curl.enabled ? model.curl_k[s] : 0.0, kb = model.bend_k[s];
+  // The exaggeration is carried as an offset from the rest shape, so that a dry strand is its
+  // rest shape to the bit.
+  Vec3 offset = Vec3::Zero();
+  out[0] = rest[0];
+  for (int i = 0; i + 1 < n; ++i) {
+    const double sig = 0.5 * (sigma[i] + sigma[i + 1]);
+    if (kw > 0.0 && sig > 0.0) {
+      const double b = kw * sig / (kw * sig + kb);
+      const Vec3 e = rest[i + 1] - rest[i];
+      const Vec3 h = model.followers.curl_turn[s] * model.helix_edge[begin + i];
+      const Vec3 mix = (1.0 - b) * e + b * h;
+      const double len = mix.norm();
+      if (len > 0.0) offset += mix * (e.norm() / len) - e;
+    }
+    out[i + 1] = rest[i + 1] + offset;
+  }
+}
+
+namespace {
+
+/// Projections out of the head per follower particle: the ellipsoid distance converges in 2-3.
+constexpr int kFollowerProjectionRounds = 4;
+
+/// Places follower strand s (see updateFollowers); `rest` is per-thread scratch of the strand's
+/// size.
+void placeFollower(const HairModel& model, const SolverConfig& config, const Pose& pose,
+                   const Obstacles* obstacles, double dt_s, int s, Vec3* rest, HairState* state) {
+  const FollowerMap& f = model.followers;
+  const int begin = model.strandBegin(s), n = model.strandSize(s);
+  const int first = model.strandBegin(f.guide_strands);
+  const int k = s - f.guide_strands;
+  exaggeratedRest(model, config.curl, s, &state->saturation[begin], rest);
+  const Vec3* xg = state->guide_position_head.data();
+  const Vec3* rg = state->guide_rest_head.data();
+  const Mat3* turn = state->guide_rotation.data();
+  const CollisionConfig& hc = config.collision;
+  const ObstacleCollisionConfig& oc = config.obstacle;
+  bool near_obstacle = false;
+  if (obstacles && oc.enabled && !obstacles->empty()) {
+    Vec3 normal;
+    const double reach = model.strand_length_m[s] + oc.margin_m + oc.offset_m;
+    near_obstacle = obstacles->distance(pose.apply(rest[0]), &normal) <= reach;
+  }
+  for (int i = 0; i < n; ++i) {
+    // Each guide carries the follower's offset from it (exaggerated rest shapes) turned with
+    // its smoothed frame: rigid motions and large bends of the guides move the offset with them.
+    Vec3 x = Vec3::Zero();
+    const size_t e0 = static_cast<size_t>(begin + i - first) * kFollowerGuides;
+    for (int g = 0; g < kFollowerGuides; ++g) {
+      const double w = f.weight[k * kFollowerGuides + g];
+      if (w == 0.0) continue;
+      const uint32_t a = f.sample_index[e0 + g];
+      const double t = f.sample_fraction[e0 + g];
+      const Vec3 guide = (1.0 - t) * xg[a] + t * xg[a + 1];
+      const Vec3 guide_rest = (1.0 - t) * rg[a] + t * rg[a + 1];
+      x += w * (guide + turn[a] * (rest[i] - guide_rest));
+    }
+    Vec3 normal;
+    if (i > 0 && hc.head_enabled) {
+      // As the solver: never pushed farther out than the particle's rest distance.
+      const double offset = std::min(hc.offset_m, model.rest_head_distance_m[begin + i]);
+      // The ellipsoid's distance is approximate off its surface: a deep particle lands short of
+      // the offset after one projection, so project again (at most a few times).
+      for (int round = 0; round < kFollowerProjectionRounds; ++round) {
+        const double dist = model.head.distance(x, &normal);
+        if (dist >= offset) break;
+        x += (offset - dist) * normal;
+      }
+    }
+    Vec3 world = pose.apply(x);
+    if (i > 0 && near_obstacle) {
+      const double dist = obstacles->distance(world, &normal);
+      if (dist < oc.offset_m) world += (oc.offset_m - dist) * normal;
+    }
+    Vec3& p = state->position[begin + i];
+    state->velocity[begin + i] = dt_s > 0.0 ? Vec3((world - p) / dt_s) : Vec3::Zero();
+    p = world;
+    state->last_good_position[begin + i] = world;
+    state->last_good_velocity[begin + i] = state->velocity[begin + i];
+  }
+}
+
+}  // namespace
+
+void updateFollowers(const HairModel& model, const SolverConfig& config, const Pose& pose,
+                     const Obstacles* obstacles, double dt_s, int threads, HairState* state) {
+  const FollowerMap& f = model.followers;
+  if (f.guide_strands <= 0) return;
+  threads = std::max(1, std::min(threads, static_cast<int>(state->scratch.size())));
+  detail::parallelFor(threads, detail::Schedule::kStatic, 0, f.guide_strands, [&](int g) {
+    StrandScratch& scratch = state->scratch[detail::threadIndex()];
+    const int begin = model.strandBegin(g), n = model.strandSize(g);
+    exaggeratedRest(model, config.curl, g, &state->saturation[begin],
+                    &state->guide_rest_head[begin]);
+    Vec3* x = &state->guide_position_head[begin];
+    for (int i = 0; i < n; ++i) x[i] = pose.applyInverse(state->position[begin + i]);
+    Mat3* frames = scratch.frame.data();
+    smoothedFrames(x, n, model.root_frame_head[g], model.beta_core[g], scratch.smooth_bend.data(),
+                   frames);
+    for (int i = 0; i + 1 < n; ++i)
+      state->guide_rotation[begin + i] = frames[i] * f.guide_rest_frame[begin + i].transpose();
+  });
+  const int followers = model.strandCount() - f.guide_strands;
+  detail::parallelFor(threads, detail::Schedule::kDynamic, 16, followers, [&](int k) {
+    Vec3* rest = state->scratch[detail::threadIndex()].bend_p.data();
+    placeFollower(model, config, pose, obstacles, dt_s, f.guide_strands + k, rest, state);
+  });
+}
+
+}  // namespace wet_curly_hair

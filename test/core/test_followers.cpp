@@ -1,0 +1,327 @@
+// Guides and followers (followers.h): follow ratio 1 is the full simulation, guides evolve as in
+// the full simulation, a follower on a guide copies it, rigid hair stays rigid, followers end
+// outside the head and the obstacles, weights are the modified Shepard weights and sum to 1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "wet_curly_hair/core/followers.h"
+#include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/saturation.h"
+#include "wet_curly_hair/core/solver.h"
+
+using namespace wet_curly_hair;
+
+namespace {
+
+constexpr double kFrame = 1.0 / 60.0;
+
+Groom curlyGroom(int strands, int particles = 32) {
+  GroomConfig c;
+  c.strands = strands;
+  c.particles = particles;
+  return generateGroom(c, EllipsoidShape());
+}
+
+HairModel followerModel(const Groom& g, int follow_ratio, const SolverConfig& c) {
+  HairModel m;
+  std::string why;
+  EXPECT_TRUE(buildFollowerModel(g, GroomConfig().linear_density_kg_per_m, follow_ratio,
+                                 HeadShape(), c, &m, &why))
+      << why;
+  return m;
+}
+
+/// A wet nodding run of `frames` frames with a sphere in reach; returns the final state.
+HairState wetNodRun(const HairModel& m, const SolverConfig& c, int frames) {
+  HeadMotionConfig nod;
+  nod.type = "nod";
+  Obstacles obstacles;
+  AnalyticObstacle sphere;
+  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
+  sphere.radius_m = 0.05;
+  obstacles.analytic.push_back(sphere);
+  HairState s = makeState(m, headPose(nod, 0.0), headTwist(nod, 0.0));
+  SaturationCommand wet;
+  wet.root_value = 0.5;
+  wet.tip_value = 1.0;
+  applySaturation(m, wet, headPose(nod, 0.0), &s);
+  for (int f = 0; f < frames; ++f) {
+    StepInputs in{headPose(nod, f * kFrame), headPose(nod, (f + 1) * kFrame), &obstacles};
+    step(m, c, in, kFrame, &s, nullptr);
+  }
+  return s;
+}
+
+/// Every guide at its rest shape carried by `pose` (followers anywhere).
+void guidesAtRest(const HairModel& m, const Pose& pose, HairState* s) {
+  for (int i = 0; i < m.strand_offsets[m.followers.guide_strands]; ++i)
+    s->position[i] = pose.apply(m.rest_position_head[i]);
+}
+
+}  // namespace
+
+TEST(Followers, SelectGuidesIsFarthestPointSampling) {
+  // Ten roots on a line, 1 cm apart: from root 0 the farthest is 9, then 4 and 5 tie at 4 cm
+  // from both (the lower index wins), then 2 (2 cm from 0 and 4; 7 is 2 cm from 5 and 9 too).
+  Vec3List roots;
+  for (int i = 0; i < 10; ++i) roots.push_back(Vec3(0.01 * i, 0.0, 0.0));
+  EXPECT_EQ(selectGuides(roots, 1), (std::vector<int>{0}));
+  EXPECT_EQ(selectGuides(roots, 2), (std::vector<int>{0, 9}));
+  EXPECT_EQ(selectGuides(roots, 3), (std::vector<int>{0, 4, 9}));
+  EXPECT_EQ(selectGuides(roots, 4), (std::vector<int>{0, 2, 4, 9}));
+  EXPECT_EQ(selectGuides(roots, 10).size(), 10u);
+  EXPECT_EQ(selectGuides(roots, 50).size(), 10u);
+  // Coinciding roots: each strand is chosen once.
+  const Vec3List same(4, Vec3(0.0, 0.0, 0.1));
+  EXPECT_EQ(selectGuides(same, 3), (std::vector<int>{0, 1, 2}));
+}
+
+TEST(Followers, WeightsAreModifiedShepardAndSumToOne) {
+  // d = 1, 2, 3 and the next guide at R = 4: w_i ~ ((R - d_i) / (R d_i))^2 = 9/16, 1/16, 1/144.
+  const double d[4] = {1.0, 2.0, 3.0, 4.0};
+  double w[3];
+  followerWeights(d, 4, w);
+  const double sum = 9.0 / 16 + 1.0 / 16 + 1.0 / 144;
+  EXPECT_NEAR(w[0], 9.0 / 16 / sum, 1e-15);
+  EXPECT_NEAR(w[1], 1.0 / 16 / sum, 1e-15);
+  EXPECT_NEAR(w[2], 1.0 / 144 / sum, 1e-15);
+  EXPECT_NEAR(w[0] + w[1] + w[2], 1.0, 1e-15);
+  // A guide as far as the next one weighs nothing (continuity when the nearest set changes).
+  const double tie[4] = {1.0, 2.0, 4.0, 4.0};
+  followerWeights(tie, 4, w);
+  EXPECT_EQ(w[2], 0.0);
+  EXPECT_NEAR(w[0] + w[1], 1.0, 1e-15);
+  // On a guide's root: that guide alone.
+  const double hit[4] = {0.0, 1.0, 2.0, 3.0};
+  followerWeights(hit, 4, w);
+  EXPECT_EQ(w[0], 1.0);
+  EXPECT_EQ(w[1] + w[2], 0.0);
+  // Fewer guides than the stencil: R = 2 d_max, still a partition of unity.
+  const double two[2] = {1.0, 3.0};
+  followerWeights(two, 2, w);
+  EXPECT_NEAR(w[0] + w[1], 1.0, 1e-15);
+  EXPECT_NEAR(w[0] / w[1], std::pow((5.0 / 6) / (3.0 / 18), 2), 1e-12);
+}
+
+TEST(Followers, ModelWeightsSumToOneAndGuidesComeFirst) {
+  const SolverConfig c;
+  const Groom g = curlyGroom(200);
+  const HairModel m = followerModel(g, 4, c);
+  EXPECT_EQ(m.followers.guide_strands, 50);
+  EXPECT_EQ(m.strandCount(), 200);
+  EXPECT_EQ(m.simulatedStrandCount(), 50);
+  std::vector<int> seen(200, 0);
+  for (int s = 0; s < 200; ++s) {
+    const int src = m.followers.source_strand[s];
+    ++seen[src];
+    EXPECT_EQ(m.rest_position_head[m.strandBegin(s)], g.points[g.strand_offsets[src]]);
+  }
+  for (int k : seen) EXPECT_EQ(k, 1);
+  for (int f = 0; f < 150; ++f) {
+    double sum = 0.0;
+    for (int n = 0; n < kFollowerGuides; ++n) {
+      const int guide = m.followers.guide[f * kFollowerGuides + n];
+      EXPECT_GE(guide, 0);
+      EXPECT_LT(guide, 50);
+      EXPECT_GE(m.followers.weight[f * kFollowerGuides + n], 0.0);
+      sum += m.followers.weight[f * kFollowerGuides + n];
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-14) << "follower " << f;
+  }
+}
+
+TEST(Followers, BadFollowRatioIsRefusedWithTheKeyNamed) {
+  const SolverConfig c;
+  const Groom g = curlyGroom(10);
+  for (int k : {0, -3, kMaxFollowRatio + 1}) {
+    HairModel m;
+    m.strand_offsets = {0, 7};
+    std::string why;
+    EXPECT_FALSE(buildFollowerModel(g, 0.0124, k, HeadShape(), c, &m, &why)) << k;
+    EXPECT_NE(why.find("groom.follow_ratio"), std::string::npos) << why;
+    EXPECT_EQ(m.strand_offsets, (std::vector<uint32_t>{0, 7})) << "a refused build changed it";
+    GroomConfig gc;
+    gc.follow_ratio = k;
+    why.clear();
+    EXPECT_FALSE(gc.validate("groom.", &why)) << k;
+    EXPECT_NE(why.find("groom.follow_ratio"), std::string::npos) << why;
+  }
+}
+
+TEST(Followers, FollowRatioOneIsTheFullSimulationToTheBit) {
+  const SolverConfig c;
+  const Groom g = curlyGroom(20);
+  HairModel full;
+  std::string why;
+  ASSERT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &full, &why));
+  const HairModel one = followerModel(g, 1, c);
+  EXPECT_EQ(one.followers.guide_strands, 0);
+  EXPECT_EQ(one.simulatedStrandCount(), 20);
+  const HairState a = wetNodRun(full, c, 30), b = wetNodRun(one, c, 30);
+  for (int i = 0; i < full.particleCount(); ++i) {
+    ASSERT_EQ(a.position[i], b.position[i]) << i;
+    ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << i;
+  }
+  // Every strand was simulated (the tips left the rest pose carried by the head; the head ends
+  // at the pose of the last frame, 0.5 s into the nod) and nothing was interpolated.
+  HeadMotionConfig nod;
+  nod.type = "nod";
+  const Pose end = headPose(nod, 30 * kFrame);
+  for (int s = 0; s < one.strandCount(); ++s) {
+    const int tip = one.strandBegin(s) + one.strandSize(s) - 1;
+    EXPECT_GT((end.applyInverse(b.position[tip]) - one.rest_position_head[tip]).norm(), 1e-3) << s;
+  }
+  HairState t = makeState(one, Pose(), Twist());
+  StepStats stats;
+  step(one, c, StepInputs{Pose(), Pose()}, kFrame, &t, &stats);
+  EXPECT_EQ(stats.stage_particles[kStageFollowers], 0u);
+}
+
+TEST(Followers, GuidesMoveExactlyAsTheSameStrandsInTheFullSimulation) {
+  // Strands couple only through per-step outputs (cohesion display positions, not fed back):
+  // a guide must not notice that its neighbours became followers.
+  const SolverConfig c;
+  const Groom g = curlyGroom(40);
+  const HairModel full = followerModel(g, 1, c), half = followerModel(g, 4, c);
+  const HairState a = wetNodRun(full, c, 30), b = wetNodRun(half, c, 30);
+  for (int s = 0; s < half.followers.guide_strands; ++s) {
+    const int src = half.followers.source_strand[s];
+    for (int i = 0; i < half.strandSize(s); ++i)
+      ASSERT_EQ(b.position[half.strandBegin(s) + i], a.position[full.strandBegin(src) + i])
+          << "guide " << s << " particle " << i;
+  }
+}
+
+TEST(Followers, AFollowerOnAGuidesRootWithItsShapeCopiesIt) {
+  // Strand 1 is strand 0 again: farthest-point sampling keeps 0 as a guide and never picks 1;
+  // on 0's root its weight is 1, its arc-length samples fall on 0's particles, its saturation
+  // is 0's: it must be 0, wet, nodding, near an obstacle.
+  const Groom g = curlyGroom(6);
+  Groom twin;
+  for (int src : {0, 0, 1, 2, 3, 4, 5}) {
+    twin.points.insert(twin.points.end(), g.points.begin() + g.strand_offsets[src],
+                       g.points.begin() + g.strand_offsets[src + 1]);
+    twin.strand_offsets.push_back(static_cast<uint32_t>(twin.points.size()));
+    twin.root_normals.push_back(g.root_normals[src]);
+  }
+  ASSERT_EQ(twin.strandCount(), 7);
+  std::string why;
+  ASSERT_TRUE(twin.validate(&why)) << why;
+  const SolverConfig c;
+  const HairModel m = followerModel(twin, 2, c);
+  ASSERT_EQ(m.followers.guide_strands, 4);
+  int copy = -1, original = -1;
+  for (int s = 0; s < m.strandCount(); ++s) {
+    if (m.followers.source_strand[s] == 0) original = s;
+    if (m.followers.source_strand[s] == 1) copy = s;
+  }
+  ASSERT_LT(original, m.followers.guide_strands);
+  ASSERT_GE(copy, m.followers.guide_strands);
+  const HairState s = wetNodRun(m, c, 40);
+  double moved = 0.0;
+  for (int i = 0; i < m.strandSize(copy); ++i) {
+    const Vec3& x = s.position[m.strandBegin(copy) + i];
+    const Vec3& y = s.position[m.strandBegin(original) + i];
+    EXPECT_LT((x - y).norm(), 1e-12) << "particle " << i;
+    moved = std::max(moved, (m.rest_position_head[m.strandBegin(original) + i] - y).norm());
+  }
+  EXPECT_GT(moved, 1e-3) << "the guide did not move: the test proves nothing";
+}
+
+TEST(Followers, RigidHairStaysRigidWithTheHead) {
+  // Guides at rest carried by a turned and moved head: every follower is its own rest shape
+  // carried by the same head, to round-off, with the head's velocity from its previous pose.
+  SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(100), 5, c);
+  Pose before, after;
+  after.rotation = Quat(Eigen::AngleAxisd(0.7, Vec3(0.3, -1.0, 0.2).normalized()));
+  after.translation = Vec3(0.1, -0.2, 0.05);
+  HairState s = makeState(m, before, Twist());
+  guidesAtRest(m, after, &s);
+  const double dt = 0.01;
+  updateFollowers(m, c, after, nullptr, dt, 1, &s);
+  for (int i = m.strand_offsets[m.followers.guide_strands]; i < m.particleCount(); ++i) {
+    const Vec3 expected = after.apply(m.rest_position_head[i]);
+    ASSERT_LT((s.position[i] - expected).norm(), 1e-12) << i;
+    const Vec3 v = (expected - before.apply(m.rest_position_head[i])) / dt;
+    ASSERT_LT((s.velocity[i] - v).norm(), 1e-9) << i;
+  }
+  // And through step(): no gravity, a still head at that pose, rest stays rest for everyone.
+  c.gravity_m_s2.setZero();
+  HairState t = makeState(m, after, Twist());
+  for (int f = 0; f < 60; ++f) step(m, c, StepInputs{after, after}, kFrame, &t, nullptr);
+  for (int i = 0; i < m.particleCount(); ++i)
+    ASSERT_LT((after.applyInverse(t.position[i]) - m.rest_position_head[i]).norm(), 1e-6) << i;
+}
+
+TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
+  // Guides pushed 3 cm into the head along the head normal: their displacement carries the
+  // followers inside too, and the projection must put every non-root particle back at least
+  // min(offset, rest distance) out (the solver's rule), and out of a sphere in the hair.
+  const SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(120), 4, c);
+  const Pose pose;
+  HairState s = makeState(m, pose, Twist());
+  for (int i = 0; i < m.strand_offsets[m.followers.guide_strands]; ++i) {
+    Vec3 normal;
+    m.head.distance(m.rest_position_head[i], &normal);
+    s.position[i] = m.rest_position_head[i] - 0.03 * normal;
+  }
+  Obstacles obstacles;
+  AnalyticObstacle sphere;
+  sphere.center_m = Vec3(0.0, 0.0, 0.17);
+  sphere.radius_m = 0.04;
+  obstacles.analytic.push_back(sphere);
+  // Without the projections some followers would end inside the head.
+  SolverConfig free_config = c;
+  free_config.collision.head_enabled = false;
+  HairState unprojected = s;
+  updateFollowers(m, free_config, pose, nullptr, kFrame, 1, &unprojected);
+  updateFollowers(m, c, pose, &obstacles, kFrame, 2, &s);
+  int inside_unprojected = 0, near_sphere = 0;
+  for (int st = m.followers.guide_strands; st < m.strandCount(); ++st) {
+    for (int i = m.strandBegin(st) + 1; i < m.strandBegin(st) + m.strandSize(st); ++i) {
+      Vec3 normal;
+      const double offset = std::min(c.collision.offset_m, m.rest_head_distance_m[i]);
+      EXPECT_GE(m.head.distance(s.position[i], &normal), offset - 1e-12) << i;
+      // The sphere sits 2 cm above the scalp: its projection cannot push into the head.
+      const double to_sphere = obstacles.distance(s.position[i], &normal);
+      EXPECT_GE(to_sphere, c.obstacle.offset_m - 1e-12) << i;
+      inside_unprojected += m.head.distance(unprojected.position[i], &normal) < 0.0;
+      near_sphere += obstacles.distance(unprojected.position[i], &normal) < c.obstacle.offset_m;
+    }
+  }
+  EXPECT_GT(inside_unprojected, 0) << "nothing to project: the test proves nothing";
+  EXPECT_GT(near_sphere, 0) << "the sphere is out of reach: the test proves nothing";
+}
+
+TEST(Followers, ExaggeratedRestIsTheRestShapeWhenDryAndKeepsEdgeLengthsWhenWet) {
+  const SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(8), 2, c);
+  const int s = 5, begin = m.strandBegin(s), n = m.strandSize(s);
+  std::vector<double> sigma(n, 0.0);
+  Vec3List out(n);
+  exaggeratedRest(m, c.curl, s, sigma.data(), out.data());
+  for (int i = 0; i < n; ++i) ASSERT_EQ(out[i], m.rest_position_head[begin + i]);
+  sigma.assign(n, 1.0);
+  exaggeratedRest(m, c.curl, s, sigma.data(), out.data());
+  // Fully wet: each edge turns by b = k_w / (k_w + k_b) toward the helix edge, its length kept.
+  const double b = m.curl_k[s] / (m.curl_k[s] + m.bend_k[s]);
+  double turned = 0.0;
+  for (int i = 0; i + 1 < n; ++i) {
+    const Vec3 e = m.rest_position_head[begin + i + 1] - m.rest_position_head[begin + i];
+    const Vec3 h = m.followers.curl_turn[s] * m.helix_edge[begin + i];
+    const Vec3 mix = (1.0 - b) * e + b * h;
+    const Vec3 expected = mix * (e.norm() / mix.norm());
+    EXPECT_LT((out[i + 1] - out[i] - expected).norm(), 1e-12) << i;
+    EXPECT_NEAR((out[i + 1] - out[i]).norm(), e.norm(), 1e-12) << i;
+    turned = std::max(turned, (out[i + 1] - out[i] - e).norm());
+  }
+  EXPECT_GT(turned, 1e-4);
+  sigma.assign(n, 1.0);
+  SolverConfig off = c;
+  off.curl.enabled = false;
+  exaggeratedRest(m, off.curl, s, sigma.data(), out.data());
+  for (int i = 0; i < n; ++i) ASSERT_EQ(out[i], m.rest_position_head[begin + i]);
+}
