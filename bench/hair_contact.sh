@@ -92,7 +92,7 @@ cat "$out/hair_contact_cost.csv"
 # Before / after: the spin's last frame, contact off and on.
 if [ -x "$bin/wet_curly_hair_render" ]; then
   "$bin/wet_curly_hair_render" --sheet 2 --head --view 1,0.55,0.3 \
-    --caption "spin 1 rev/s, ${seconds} s, wet: contact off | on" \
+    --caption "spin 1 rev/s, wet" \
     --out "$img/hair_contact_sheet.png" "$(ls "$tmp"/frames_off/*.hair | tail -1)" \
     "$(ls "$tmp"/frames_on/*.hair | tail -1)"
 fi
