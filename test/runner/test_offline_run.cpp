@@ -309,10 +309,24 @@ TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
   RunSummary s;
   std::string why;
   ASSERT_TRUE(runScene(scene, RunOptions(), &s, &why)) << why;
-  const std::vector<std::string> defaults = {"rigid_motion",     "energy",    "strain",
-                                             "head_penetration", "obstacles", "jitter",
-                                             "clump_distance",   "tangles",   "curl_shape"};
+  std::vector<std::string> defaults = {
+      "rigid_motion", "energy",         "strain",  "head_penetration", "obstacles",
+      "jitter",       "clump_distance", "tangles", "curl_shape",       "head_distance"};
   EXPECT_EQ(s.measurements, defaults);
+  EXPECT_EQ(s.crossings, -1);  // hair contact off: not measured
+  EXPECT_GT(s.mean_head_distance_m, 0.0);
+  {
+    // Hair contact on: crossings are measured every frame (the series has one per frame).
+    SceneConfig contact = scene;
+    contact.solver.hair_contact.enabled = true;
+    RunSummary c;
+    ASSERT_TRUE(runScene(contact, RunOptions(), &c, &why)) << why;
+    std::vector<std::string> with = defaults;
+    with.insert(with.end() - 1, "crossings");
+    EXPECT_EQ(c.measurements, with);
+    EXPECT_GE(c.crossings, 0);
+    EXPECT_EQ(c.crossings_series.size(), 15u);  // 0.25 s at 60 Hz
+  }
   ASSERT_EQ(s.measurement_s.size(), defaults.size());
   double sum = 0.0;
   for (double t : s.measurement_s) {

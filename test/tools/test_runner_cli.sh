@@ -67,6 +67,18 @@ for args in "--water-source shower:r=0" "--dryer box:hx=1,fan=2" "--water-source
   check "'$args' names the flag" "grep -q -- '--$field' $out/err"
 done
 check "a bad shower names its field" "\"$run\" --water-source shower:r=0 2>&1 | grep -q 'shower.r:'"
+# Hair contact: --hair-contact on|off sets the scene key; the JSON carries the crossings (measured
+# with contact on) and the contacts; anything but on/off exits 2 naming the flag.
+"$run" --print-scene --hair-contact on > "$out/contact.yaml"
+check "--hair-contact on sets solver.hair_contact.enabled" "grep -A1 'hair_contact:' $out/contact.yaml | grep -q 'enabled: true'"
+"$run" --seconds 0.1 --strands 6 --particles 16 --motion nod --hair-contact on \
+  --json "$out/c.json" > /dev/null 2>&1
+check "--hair-contact on measures crossings" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/c.json')); sys.exit(0 if d['crossings']>=0 and len(d['crossings_series'])==6 and 'hair_contact' in d['stages'] else 1)\""
+"$run" --seconds 0.1 --strands 6 --particles 16 --json "$out/c0.json" > /dev/null 2>&1
+check "contact off: crossings not measured (-1)" "/usr/bin/python3 -c \"import json,sys; d=json.load(open('$out/c0.json')); sys.exit(0 if d['crossings']==-1 else 1)\""
+"$run" --hair-contact yes > /dev/null 2> "$out/err"
+rc=$?
+check "'--hair-contact yes' exits 2 naming the flag (got $rc)" "[ $rc -eq 2 ] && grep -q -- '--hair-contact' $out/err"
 "$run" --print-scene --curl-radius 0 > "$out/scene.yaml"
 check "print-scene applies overrides" "grep -q 'curl_radius_m: 0 ' $out/scene.yaml"
 echo "$pass passed, $fail failed"
