@@ -273,7 +273,7 @@ TEST(HairContact, RampAndTaperAddNoEnergy) {
   // left out: a strand thrown past its fixed root loses and gains energy at the root edge before
   // any contact, with contact off too.) Raising the stiffness on a compressed pair adds
   // 1/2 da k d^2: the full damping during the ramp (Iben) must take out more than that; with
-  // the damping off this fails by a third of the energy.
+  // the damping off this fails by two thirds of the energy before contact.
   Groom g;
   const int n = 32;
   addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
