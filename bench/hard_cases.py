@@ -233,9 +233,11 @@ def judge(d, rc, settings, saturation_changes, from_first_step):
     return row
 
 
-def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeout):
+def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeout, contact=False):
     scene_path = os.path.join("config", "hard", scene + ".yaml")
     extra = runner_args(os.path.join(PKG, scene_path))
+    if contact:
+        extra = extra + ["--hair-contact", "on"]
     frame = max(FRAME_S, step_s)
     tag = "%s__%s__%s" % (scene, integrator, step_label.replace("/", "_"))
     json_path = os.path.join(out_dir, tag + ".json")
@@ -356,6 +358,8 @@ def main():
     ap.add_argument("--make-inputs", action="store_true", help="remake config/hard/*.bt and .hair")
     ap.add_argument("--work", help="keep each run's JSON here (default: a temporary folder, removed)")
     ap.add_argument("--scenes"), ap.add_argument("--integrators"), ap.add_argument("--steps")
+    ap.add_argument("--hair-contact", action="store_true",
+                    help="every run with hair-hair contact on (writes hard_cases_contact.*)")
     args = ap.parse_args()
     run = find_tool(args.build, "wet_curly_hair_run")
     if not run:
@@ -379,7 +383,8 @@ def main():
     rows = []
     t0 = time.time()
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
-        futures = [pool.submit(run_one, run, work, sc, integ, lbl, val, settings[sc], args.timeout)
+        futures = [pool.submit(run_one, run, work, sc, integ, lbl, val, settings[sc], args.timeout,
+                               args.hair_contact)
                    for sc, integ, lbl, val in jobs]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
@@ -389,11 +394,14 @@ def main():
     order = {j[:3]: k for k, j in enumerate(jobs)}
     rows.sort(key=lambda r: order[(r["scene"], r["integrator"], r["substep"])])
     name = "hard_cases_short" if args.short else "hard_cases"
+    if args.hair_contact:
+        name += "_contact"
     with open(os.path.join(args.out, name + ".csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
-    command = "bench/hard_cases.py --build _build --jobs 2" + (" --short" if args.short else "")
+    command = "bench/hard_cases.py --build _build --jobs 2" + (" --short" if args.short else "") + \
+        (" --hair-contact" if args.hair_contact else "")
     md = ("Written by `bench/hard_cases.py`; raw figures in [%s.csv](%s.csv). Total wall time %.0f s."
           "\n\n" % (name, name, time.time() - t0) + markdown(rows, scenes, integrators,
                                                          [s for s, _ in steps], command))
