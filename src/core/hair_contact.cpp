@@ -81,11 +81,14 @@ void prepareHairContact(const HairModel& model, const HairContactConfig& config,
 
 namespace {
 
-/// Most list entries per sphere (on average over a build thread's spheres): a groom far denser
+/// Most list entries per sphere (on average over a build range's spheres): a groom far denser
 /// than its contact radius (thousands of neighbours within reach) would otherwise fill memory.
 /// Past it the substep has no contact forces and the overflow is counted
 /// (WarningStats::hair_contact_overflows).
 constexpr size_t kMaxListedPerSphere = 256;
+
+/// Ranges the list build cuts the spheres into (fixed, so that nothing depends on the threads).
+constexpr int kListChunks = 16;
 
 /// True when two spheres may have come within 2 r that were farther than 2 r + skin when the
 /// list was built: the two largest displacements since then add up to more than the skin.
@@ -110,15 +113,15 @@ bool listStale(const HairContactState& c, const Pose& head, double skin_m) {
 }
 
 /// The Verlet list: every pair of spheres of different strands within 2 r + skin, in both
-/// directions, each row sorted. One pass: each thread fills the rows of a contiguous range of
-/// spheres into its own buffer, and the buffers are joined in sphere order (the same list for
-/// any thread count).
+/// directions, each row sorted. One pass: the spheres are cut into kListChunks contiguous ranges,
+/// each filled into its own buffer by whichever thread takes it, and the buffers are joined in
+/// sphere order (the same list, and the same overflow decision, for any thread count).
 bool buildPairList(const HairContactConfig& config, const Pose& head, int threads,
                    HairContactState* c) {
   const double reach = 2.0 * config.radius_m + config.skin_m;
   const int spheres = static_cast<int>(c->sphere_position.size());
   buildNeighborGrid(c->sphere_position, reach, &c->grid, threads);
-  const int chunks = std::max(1, threads);
+  const int chunks = kListChunks;
   if (static_cast<int>(c->chunk_rows.size()) < chunks) c->chunk_rows.resize(chunks);
   parallelFor(threads, Schedule::kStatic, 1, chunks, [&](int t) {
     std::vector<uint32_t>& out = c->chunk_rows[t];

@@ -20,8 +20,8 @@ struct WarningStats {
   /// more lattice nodes than were preallocated (HairModel::cohesion_grid_nodes).
   uint64_t cohesion_grid_fallbacks = 0;
   /// Substeps without hair-contact forces because the pair list would have held more than
-  /// kMaxListedPerSphere entries per sphere (a contact radius far too large for the groom's
-  /// density; hair_contact.cpp).
+  /// kMaxListedPerSphere entries per sphere over a build range (a contact radius far too large for
+  /// the groom's density; hair_contact.cpp).
   uint64_t hair_contact_overflows = 0;
   uint64_t total() const { return nonfinite_repairs + strain_repairs; }
 };
