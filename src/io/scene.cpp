@@ -94,21 +94,33 @@ void addVec(std::vector<ParamRef>* t, const std::string& name, Vec3* v, const st
     t->push_back({name + "." + axes[k], ParamRef::Type::kDouble, &(*v)[k], doc, rebuild});
 }
 
+/// Appends a row to a parameter table, its type from the field's: rows(name, &field, doc,
+/// needs_rebuild).
+struct Rows {
+  std::vector<ParamRef>* t;
+  void operator()(const std::string& n, double* f, const std::string& doc, bool rebuild) const {
+    t->push_back({n, ParamRef::Type::kDouble, f, doc, rebuild});
+  }
+  void operator()(const std::string& n, int* f, const std::string& doc, bool rebuild) const {
+    t->push_back({n, ParamRef::Type::kInt, f, doc, rebuild});
+  }
+  void operator()(const std::string& n, bool* f, const std::string& doc, bool rebuild) const {
+    t->push_back({n, ParamRef::Type::kBool, f, doc, rebuild});
+  }
+  void operator()(const std::string& n, std::string* f, const std::string& doc,
+                  bool rebuild) const {
+    t->push_back({n, ParamRef::Type::kString, f, doc, rebuild});
+  }
+};
+
 }  // namespace
 
 namespace {
 
-/// The groom and groom_file rows of parameterTable.
-/// solver.hair_contact.* (hair-hair contact, hair_contact.h).
+/// The solver.hair_contact rows of parameterTable (hair-hair contact, hair_contact.h).
 void addHairContactParameters(HairContactConfig* hc_config, std::vector<ParamRef>* table) {
-  using T = ParamRef::Type;
   std::vector<ParamRef>& t = *table;
-  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kDouble, f, doc, rebuild});
-  };
-  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kBool, f, doc, rebuild});
-  };
+  const Rows d{&t}, b{&t};
   HairContactConfig& hc = *hc_config;
   b("solver.hair_contact.enabled", &hc.enabled, "hair-hair penalty contact (Iben §2.8)", false);
   d("solver.hair_contact.radius_m", &hc.radius_m, "collision sphere radius r (contact at 2 r), m",
@@ -127,18 +139,10 @@ void addHairContactParameters(HairContactConfig* hc_config, std::vector<ParamRef
   d("solver.hair_contact.skin_m", &hc.skin_m, "Verlet list skin, m", false);
 }
 
+/// The groom and groom_file rows of parameterTable.
 void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
-  using T = ParamRef::Type;
   std::vector<ParamRef>& t = *table;
-  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kDouble, f, doc, rebuild});
-  };
-  auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kInt, f, doc, rebuild});
-  };
-  auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kString, f, doc, rebuild});
-  };
+  const Rows d{&t}, i{&t}, str{&t};
   GroomConfig& g = s->groom;
   i("groom.strands", &g.strands, "number of generated strands", true);
   i("groom.particles", &g.particles, "particles per strand, root included", true);
@@ -171,14 +175,8 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
 
 /// The water rows of parameterTable (docs/water.md).
 void addWaterParameters(SceneConfig* s, std::vector<ParamRef>* table) {
-  using T = ParamRef::Type;
   std::vector<ParamRef>& t = *table;
-  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kDouble, f, doc, rebuild});
-  };
-  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kBool, f, doc, rebuild});
-  };
+  const Rows d{&t}, b{&t};
   WaterConfig& w = s->water;
   b("water.enabled", &w.enabled,
     "run the water stage without sources too (on whenever water.sources or water.dryers is set)",
@@ -200,20 +198,8 @@ void addWaterParameters(SceneConfig* s, std::vector<ParamRef>* table) {
 }  // namespace
 
 std::vector<ParamRef> parameterTable(SceneConfig* s) {
-  using T = ParamRef::Type;
   std::vector<ParamRef> t;
-  auto d = [&](const std::string& n, double* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kDouble, f, doc, rebuild});
-  };
-  auto i = [&](const std::string& n, int* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kInt, f, doc, rebuild});
-  };
-  auto b = [&](const std::string& n, bool* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kBool, f, doc, rebuild});
-  };
-  auto str = [&](const std::string& n, std::string* f, const std::string& doc, bool rebuild) {
-    t.push_back({n, T::kString, f, doc, rebuild});
-  };
+  const Rows d{&t}, i{&t}, b{&t}, str{&t};
   addGroomParameters(s, &t);
   addVec(&t, "head.center_m", &s->head.ellipsoid.center_m, "ellipsoid centre, head frame, m", true);
   addVec(&t, "head.radii_m", &s->head.ellipsoid.radii_m, "ellipsoid semi-axes, m", true);
