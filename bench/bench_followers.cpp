@@ -18,12 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/io/scene_setup.h"
 #include "wet_curly_hair/runner/offline_run.h"
 
 using namespace wet_curly_hair;
+using wet_curly_hair::bench::cpuLine;
 
 namespace {
 
@@ -40,19 +42,6 @@ struct Options {
   /// --sag-free: the groom starts at equilibrium (solver.sag_free) instead of falling from it.
   bool sag_free = false;
 };
-
-/// The first "model name" line of /proc/cpuinfo, and whether the flags list avx512f.
-std::string cpuLine() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  bool avx512 = false;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0 && model == "unknown CPU")
-      model = line.substr(line.find(':') + 2);
-    if (line.rfind("flags", 0) == 0 && line.find(" avx512f") != std::string::npos) avx512 = true;
-  }
-  return model + (avx512 ? ", avx512f" : ", no avx512f");
-}
 
 io::SceneConfig benchScene(const Options& o, int k) {
   io::SceneConfig scene = io::builtinScene();

@@ -16,12 +16,15 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/io/scene_setup.h"
 #include "wet_curly_hair/runner/offline_run.h"
 
 using namespace wet_curly_hair;
+using wet_curly_hair::bench::cpuLine;
+using wet_curly_hair::bench::now;
 
 namespace {
 
@@ -29,23 +32,6 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
   return n == 0 ? 0.0 : (n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]));
-}
-
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-/// The first "model name" line of /proc/cpuinfo, and whether the flags list avx512f.
-std::string cpuLine() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  bool avx512 = false;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0 && model == "unknown CPU")
-      model = line.substr(line.find(':') + 2);
-    if (line.rfind("flags", 0) == 0 && line.find(" avx512f") != std::string::npos) avx512 = true;
-  }
-  return model + (avx512 ? ", avx512f" : ", no avx512f");
 }
 
 struct Options {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/core/water.h"
@@ -22,6 +23,8 @@
 #include "wet_curly_hair/runner/offline_run.h"
 
 using namespace wet_curly_hair;
+using wet_curly_hair::bench::cpuLine;
+using wet_curly_hair::bench::now;
 
 namespace {
 
@@ -35,23 +38,6 @@ double mean(const std::vector<double>& v) {
   double sum = 0.0;
   for (double x : v) sum += x;
   return v.empty() ? 0.0 : sum / v.size();
-}
-
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-
-/// The first "model name" line of /proc/cpuinfo, and whether the flags list avx512f.
-std::string cpuLine() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, model = "unknown CPU";
-  bool avx512 = false;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0 && model == "unknown CPU")
-      model = line.substr(line.find(':') + 2);
-    if (line.rfind("flags", 0) == 0 && line.find(" avx512f") != std::string::npos) avx512 = true;
-  }
-  return model + (avx512 ? ", avx512f" : ", no avx512f");
 }
 
 struct Options {
