@@ -11,26 +11,31 @@ namespace wet_curly_hair {
 using detail::parallelFor;
 using detail::Schedule;
 
-Vec3 hairContactPairForce(const Vec3& d, const Vec3& dv, double contact_m, double k, double c,
-                          double friction, double m_eff, double h) {
+HairContactPair hairContactPair(const Vec3& d, const Vec3& dv, double contact_m, double k, double c,
+                                double friction, double m_eff, double h) {
+  HairContactPair out;
   const double r2 = d.squaredNorm();
-  if (!(r2 < contact_m * contact_m) || r2 <= 0.0) return Vec3::Zero();
+  if (!(r2 < contact_m * contact_m) || r2 <= 0.0) return out;
   const double r = std::sqrt(r2);
   const Vec3 n = d / r;
+  out.normal = n;
   const double vn = dv.dot(n);
   // Normal push: penalty plus damping of the approach; a separating pair is slowed by the
   // damping but never pulled together.
-  const double push = std::max(0.0, k * (contact_m - r) - c * vn);
-  Vec3 f = -push * n;
+  out.push = std::max(0.0, k * (contact_m - r) - c * vn);
+  out.force = -out.push * n;
+  if (!(out.push > 0.0)) return out;
+  out.stiffness = k, out.damping = c;
   const Vec3 dv_t = dv - vn * n;
   const double slide = dv_t.norm();
-  if (slide > 0.0 && friction > 0.0 && push > 0.0) {
+  if (slide > 0.0 && friction > 0.0) {
     // Kinetic friction drags i along j's sliding; capped at what stops the sliding of the pair
     // in one substep (the discrete form of sticking).
-    const double drag = std::min(friction * push, m_eff * slide / h);
-    f += (drag / slide) * dv_t;
+    const double drag = std::min(friction * out.push, m_eff * slide / h);
+    out.force += (drag / slide) * dv_t;
+    out.friction_damping = std::min(friction * out.push / slide, 100.0 * m_eff / h);
   }
-  return f;
+  return out;
 }
 
 double hairContactEngagement(double a, bool touching, double h, double ramp_s, double taper_s) {
@@ -74,7 +79,8 @@ void prepareHairContact(const HairModel& model, const HairContactConfig& config,
   c->sphere_position.assign(spheres, Vec3::Zero());
   c->built_position.assign(spheres, Vec3::Zero());
   c->neighbor_start.assign(spheres + 1, 0);
-  c->strand_touching.assign(model.strandCount(), 0);  // followers: never touching
+  c->strand_touching.assign(model.strandCount(), 0);              // followers: never touching
+  c->external_block.assign(model.particleCount(), Mat3::Zero());  // only spheres' are written
   c->grid.resize(static_cast<int>(spheres), c->sphere_offsets);
   c->list_valid = false;
 }
@@ -168,7 +174,8 @@ bool buildPairList(const HairContactConfig& config, const Pose& head, int thread
 }  // namespace
 
 uint64_t computeHairContactForces(const HairModel& model, const HairContactConfig& config, double h,
-                                  const Pose& head, int threads, HairState* state) {
+                                  double implicit_theta, const Pose& head, int threads,
+                                  HairState* state) {
   HairContactState* c = &state->hair_contact;
   prepareHairContact(model, config, c);
   const int spheres = static_cast<int>(c->sphere_particle.size());
@@ -177,11 +184,14 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
     ++state->warnings.hair_contact_overflows;
     std::fill(c->touching.begin(), c->touching.end(), 0);
     std::fill(c->strand_touching.begin(), c->strand_touching.end(), 0);
+    for (uint32_t p : c->sphere_particle) c->external_block[p] = Mat3::Zero();
     c->touching_pairs = c->active_spheres = c->listed_pairs = 0;
     return 0;
   }
   const double contact = 2.0 * config.radius_m;
   const double K = config.stiffness_n_per_m3, D = config.damping_n_s_per_m3;
+  const double theta = implicit_theta;
+  const bool implicit = theta > 0.0;
   // Each sphere sums its own pairs in list order: no two threads write one particle, and the
   // pair force on b is exactly minus the one on a, so momentum is conserved pair by pair.
   const int64_t pairs = detail::parallelSum(threads, 64, spheres, [&](int a) {
@@ -189,6 +199,9 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
     const Vec3& xa = c->sphere_position[a];
     const Vec3& va = state->velocity[pa];
     Vec3 f = Vec3::Zero();
+    // Implicit methods: the sums of k n n^T, of c n n^T + c_t P and of k n n^T v_j.
+    Mat3 stiffness = Mat3::Zero(), damping = Mat3::Zero();
+    Vec3 partner_pull = Vec3::Zero();
     int64_t touching = 0;
     for (uint32_t e = c->neighbor_start[a]; e < c->neighbor_start[a + 1]; ++e) {
       const uint32_t b = c->neighbor[e];
@@ -200,10 +213,38 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
       if (!(inv > 0.0)) continue;  // two roots: both kinematic
       const double share = c->sphere_length_m[a] * c->sphere_length_m[b];
       const double ramp = std::min(c->engagement[a], c->engagement[b]);
-      f += hairContactPairForce(d, state->velocity[pb] - va, contact, ramp * K * share, D * share,
-                                config.friction, 1.0 / inv, h);
+      const Vec3& vb = state->velocity[pb];
+      const HairContactPair pair = hairContactPair(d, vb - va, contact, ramp * K * share, D * share,
+                                                   config.friction, 1.0 / inv, h);
+      if (!implicit) {
+        f += pair.force;
+        continue;
+      }
+      // Friction as the viscous drag c_t P (v_j - v_i): its start value is kinetic friction
+      // uncapped (the implicit drag cannot reverse the sliding, so it needs no cap).
+      const Mat3 nn = pair.normal * pair.normal.transpose();
+      const Mat3 tangential = pair.friction_damping * (Mat3::Identity() - nn);
+      f += -pair.push * pair.normal + tangential * (vb - va);
+      stiffness += pair.stiffness * nn;
+      damping += pair.damping * nn + tangential;
+      // The pair's centre-of-mass velocity (the partner's own when it is a kinematic root).
+      const Vec3 pair_velocity = (model.inv_mass[pb] * va + model.inv_mass[pa] * vb) / inv;
+      partner_pull += pair.stiffness * (nn * pair_velocity);
     }
     c->touching[a] = touching > 0;
+    if (implicit) {
+      // Backward Euler in this sphere's own position and velocity, the other sphere moving on at
+      // its start velocity (docs/hair_contact.md): the push at x_i + h u_i against
+      // x_j + h v_j, the damping and friction on the end velocity v+ = v + (u - v) / theta. In
+      // the theta method's M (u - v) = theta h f this adds theta h^2 K + h C to the particle's
+      // diagonal and theta h^2 K v_j + h C v_i to the right-hand side, here h K v_j + C v_i /
+      // theta in the force. Stable for any stiffness of a pair (their relative velocity is
+      // multiplied by (1 - b) / (1 + b) per substep, b = h c / m); the theta-weighted form (K at
+      // x + theta h u, C on u) would multiply it by (1 - 3 a) / (1 + a), a = theta h c / m, which
+      // passes -1 from a = 1 (a stiff midpoint contact rings).
+      c->external_block[pa] = (theta * h * h) * stiffness + h * damping;
+      f += h * partner_pull + (damping * va) / theta;
+    }
     state->external_force[pa] += f;
     return touching;
   });

@@ -344,7 +344,7 @@ const uint8_t* crossStrandForces(const HairModel& model, const SolverConfig& con
   const uint64_t builds = contact.list_builds;
   const Pose head = interpolate(inputs.head_start, inputs.head_end, s0);
   local->hair_contacts =
-      computeHairContactForces(model, config.hair_contact, h, head, threads, state);
+      computeHairContactForces(model, config.hair_contact, h, plan.theta, head, threads, state);
   local->hair_contact_list_builds += contact.list_builds - builds;
   local->hair_contact_listed_pairs = contact.listed_pairs;
   local->stage_particles[kStageHairContact] += contact.sphere_particle.size();

@@ -38,6 +38,9 @@ template <typename S>
 struct BlockArrays {
   V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
   M33<S>*block, *pivot_inverse;
+  /// Per particle: the cross-strand forces' own block of the implicit solve (hair contact,
+  /// HairContactState::external_block), zero on lanes without one.
+  M33<S>* external_block;
   S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
   S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
   S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
@@ -69,7 +72,7 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   BlockArrays<S> a;
   a.p = v3(), a.v = v3(), a.f = v3(), a.d = v3(), a.b = v3(), a.nu = v3(), a.v_start = v3();
   a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3();
-  a.block = m3(), a.pivot_inverse = m3();
+  a.block = m3(), a.pivot_inverse = m3(), a.external_block = m3();
   a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
   a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
   a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
@@ -103,6 +106,7 @@ struct Block {
   bool curl_on[kWidth], obstacle_on[kWidth], adhesion_on[kWidth], stiffness_on[kWidth];
   bool any_curl = false, any_obstacle = false, any_adhesion = false, any_stiffness = false;
   bool any_external = false;
+  bool any_external_block = false;  ///< a lane's cross-strand forces have an implicit block.
   Mask curl_mask, stiffness_mask;
   S beta_bend, beta_core, core_gain;
   // Per-strand spring constants (HairModel::bend_k ...): curl_weight is w_h (W / L) on a wet
@@ -156,6 +160,9 @@ void planBlockStages(Block<S>& blk) {
     blk.any_adhesion |= blk.adhesion_on[l];
     blk.any_stiffness |= blk.stiffness_on[l];
     blk.any_external |= fl.external_force && blk.realLane(l);
+    blk.any_external_block |= fl.external_force && blk.realLane(l) && blk.plan.implicit &&
+                              config.hair_contact.enabled &&
+                              !blk.state->hair_contact.external_block.empty();
     const HairModel& model = blk.model;
     const int s = blk.strand[l];
     setLaneValue(&blk.beta_bend, l, model.beta_bend[s]);
@@ -457,6 +464,19 @@ void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
   }
 }
 
+/// The cross-strand forces' own implicit blocks (hair contact) into the lanes that have them.
+template <typename S>
+void gatherExternalBlocks(Block<S>& blk) {
+  const Mat3List& ext = blk.state->hair_contact.external_block;
+  for (int l = 0; l < Block<S>::kWidth; ++l) {
+    const bool on = blk.realLane(l) && blk.flags[l].external_force;
+    for (int i = 0; i < blk.n; ++i)
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c)
+          setLaneValue(&blk.a.external_block[i].m[r][c], l, on ? ext[blk.begin[l] + i](r, c) : 0.0);
+  }
+}
+
 /// Block Thomas: forward elimination of (m_i + G_{i-1} + G_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1}
 /// = rhs_i root to tip, back substitution into a.v.
 template <typename S>
@@ -467,6 +487,7 @@ void solveBlockTridiagonal(Block<S>& blk) {
     M33<S> pivot = a.block[i - 1];
     for (int r = 0; r < 3; ++r) pivot.m[r][r] += a.m[i];
     if (i < blk.edges) pivot = pivot + a.block[i];
+    if (blk.any_external_block) pivot = pivot + a.external_block[i];
     if (i > 1) {
       const M33<S> w = a.block[i - 1] * a.pivot_inverse[i - 1];
       pivot = pivot - w * a.block[i - 1];
@@ -506,6 +527,7 @@ void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
     a.f[i + 1] -= t.explicit_force;
   }
   for (int i = 0; i < n; ++i) a.v_start[i] = a.v[i];
+  if (blk.any_external_block) gatherExternalBlocks(blk);
   const S th = q.theta_h;
   for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + th * a.f[i];
   a.rhs[1] += a.block[0] * a.v[0];  // the prescribed root velocity moved to the right-hand side

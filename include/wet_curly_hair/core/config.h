@@ -250,9 +250,9 @@ struct HairContactConfig {
   /// least s 2 r from the last one in the rest pose (1: the spheres just touch). (0, 1].
   double sparsity = 0.75;
   /// K, N/m per m of each strand: a sphere pair pushes apart with K l_i l_j (2 r - d).
-  double stiffness_n_per_m3 = 5.0e5;
+  double stiffness_n_per_m3 = 5.0e6;
   /// D, N s/m per m of each strand: damping of the normal relative velocity, D l_i l_j.
-  double damping_n_s_per_m3 = 600.0;
+  double damping_n_s_per_m3 = 2000.0;
   /// Coulomb friction coefficient between strands (the sliding force is at most mu times the
   /// normal force, and never more than stops the pair's sliding within the substep).
   double friction = 0.2;

@@ -86,6 +86,9 @@ struct HairContactState {
   std::vector<uint32_t> neighbor_start, neighbor;
   std::vector<std::vector<uint32_t>> chunk_rows;  ///< per build thread: its rows, joined after.
   std::vector<uint8_t> strand_touching;  ///< per strand: any sphere touching (force applied).
+  /// Per particle (written at the spheres' particles only, zero elsewhere): the contact's block
+  /// (theta h^2 K + h C) of the implicit solve (hair_contact.h), zero with the explicit method.
+  Mat3List external_block;
   bool list_valid = false;
   uint64_t list_builds = 0;     ///< Verlet list builds so far.
   uint64_t touching_pairs = 0;  ///< sphere pairs touching in the last substep.
