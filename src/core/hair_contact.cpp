@@ -171,6 +171,27 @@ bool buildPairList(const HairContactConfig& config, const Pose& head, int thread
   return true;
 }
 
+/// The direction between two spheres exactly on top of each other (strands that start
+/// coincident), where d = 0 gives none: across the lower-indexed sphere's strand, perpendicular
+/// to its edge there, signed by the index order so that the pair's forces stay exactly opposite.
+/// Returned as a tiny d = x_b - x_a for the pair law.
+Vec3 coincidentOffset(const HairModel& model, const HairState& state, const HairContactState& c,
+                      uint32_t a, uint32_t b) {
+  const uint32_t low = std::min(a, b);
+  const int p = static_cast<int>(c.sphere_particle[low]);
+  const int strand = static_cast<int>(c.grid.strand_of[low]);
+  const int end = model.strandBegin(strand) + model.strandSize(strand);
+  const Vec3 edge = p + 1 < end ? Vec3(state.position[p + 1] - state.position[p])
+                                : Vec3(state.position[p] - state.position[p - 1]);
+  Vec3 axis = Vec3::Zero();  // the coordinate axis least along the edge
+  int k = 0;
+  edge.cwiseAbs().minCoeff(&k);
+  axis[k] = 1.0;
+  Vec3 across = edge.cross(axis);
+  across = across.norm() > 0.0 ? Vec3(across.normalized()) : Vec3::UnitX();
+  return (a == low ? 1e-12 : -1e-12) * across;
+}
+
 }  // namespace
 
 uint64_t computeHairContactForces(const HairModel& model, const HairContactConfig& config, double h,
@@ -206,8 +227,9 @@ uint64_t computeHairContactForces(const HairModel& model, const HairContactConfi
     for (uint32_t e = c->neighbor_start[a]; e < c->neighbor_start[a + 1]; ++e) {
       const uint32_t b = c->neighbor[e];
       const uint32_t pb = c->sphere_particle[b];
-      const Vec3 d = c->sphere_position[b] - xa;
+      Vec3 d = c->sphere_position[b] - xa;
       if (!(d.squaredNorm() < contact * contact)) continue;
+      if (d.squaredNorm() == 0.0) d = coincidentOffset(model, *state, *c, a, b);
       ++touching;
       const double inv = model.inv_mass[pa] + model.inv_mass[pb];
       if (!(inv > 0.0)) continue;  // two roots: both kinematic

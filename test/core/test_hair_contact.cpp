@@ -374,6 +374,27 @@ TEST(HairContact, AStiffContactDoesNotRing) {
   }
 }
 
+TEST(HairContact, CoincidentStrandsArePushedApart) {
+  // Two copies of one straight strand, exactly on top of each other (a groom exported with a
+  // strand twice), no gravity: the spheres have no direction between them, so the law alone
+  // gives no force; the pair is pushed across the strand instead, the two ways opposite. The
+  // tips end at least the contact distance apart, with the momentum of the pair kept (their
+  // mean tip stays on the strand's line).
+  Groom g;
+  const int n = 32;
+  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
+  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
+  SolverConfig c = contactConfig();
+  c.gravity_m_s2 = Vec3::Zero();
+  const HairModel m = makeModel(g, c);
+  HairState s = makeState(m, Pose(), Twist());
+  for (int f = 0; f < 60; ++f) step(m, c, StepInputs{Pose(), Pose()}, kFrame, &s, nullptr);
+  const Vec3 a = s.position[n - 1], b = s.position[2 * n - 1];
+  EXPECT_GT((a - b).norm(), 2.0 * c.hair_contact.radius_m);
+  const Vec3 mean = 0.5 * (a + b);
+  EXPECT_LT(Vec3(mean.x(), mean.y(), 0.0).norm(), 1e-9);
+}
+
 TEST(HairContact, AStepIsTheSameForAnyThreadCount) {
   // 30 curly strands under a nod with contact on: one thread and two give the same hair to the
   // last bit (each sphere sums its own pairs in list order; the list is sorted).
