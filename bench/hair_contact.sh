@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Hair-hair contact measured (docs/hair_contact.md): the built-in groom (200 curly strands of 32,
-# wet 0.8) under a spin, a nod and a shake, contact off and on: crossings between frames, the
-# groom's volume (mean particle distance from the head surface, last frame and over the run),
-# and the cost of the contact stage against the rest of the step; then the cost at 100, 1,000
-# and 10,000 strands (short runs); and a before/after picture of the spin's last frame.
+# wet 0.8) on a still head and under a spin, a nod and a shake, contact off and on: crossings
+# between frames, the groom's volume (mean particle distance from the head surface, last frame
+# and over the run), and the cost of the contact stage against the rest of the step; then the
+# cost at 100, 1,000 and 10,000 strands (short runs); and a before/after picture of the spin's
+# last frame.
 #   bench/hair_contact.sh [OUT]   default OUT: docs/bench (hair_contact.csv, hair_contact_cost.csv,
 #                                 and hair_contact_sheet.png in docs/img)
 # One solver thread, so that the ratios do not depend on what else the machine runs.
@@ -24,7 +25,7 @@ run() {  # name motion contact [extra...]
   "$bin/wet_curly_hair_run" --seconds "$seconds" --motion "$motion" --saturation 0.8,0.8 \
     --threads 1 --hair-contact "$contact" --crossings --json "$tmp/$name.json" "$@" > /dev/null
 }
-for motion in spin:rate_hz=1 nod shake; do
+for motion in still spin:rate_hz=1 nod shake; do
   m=${motion%%:*}
   for contact in off on; do
     frames=()
@@ -36,7 +37,7 @@ done
 import json, sys
 tmp, csv, cpu, avx512, seconds = sys.argv[1:]
 rows = []
-for m in ["spin", "nod", "shake"]:
+for m in ["still", "spin", "nod", "shake"]:
     for c in ["off", "on"]:
         d = json.load(open("%s/%s_%s.json" % (tmp, m, c)))
         st = d["stages"]

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/hair_contact.h"
 #include "wet_curly_hair/core/smoothing.h"
 #include "wet_curly_hair/core/springs.h"
 
@@ -65,6 +66,8 @@ EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pos
       e.core += coreEnergy(scr.smooth_core[i], model.core_rest_m[begin + i], model.core_k[s]);
     }
   }
+  if (config.hair_contact.enabled)
+    e.hair_contact = hairContactEnergy(model, config.hair_contact, state);
   return e;
 }
 

@@ -43,6 +43,31 @@ double hairContactEngagement(double a, bool touching, double h, double ramp_s, d
   return taper_s > 0.0 ? std::max(0.0, a - h / taper_s) : 0.0;
 }
 
+double hairContactEnergy(const HairModel& model, const HairContactConfig& config,
+                         HairState* state) {
+  HairContactState* c = &state->hair_contact;
+  prepareHairContact(model, config, c);
+  const int spheres = static_cast<int>(c->sphere_particle.size());
+  if (spheres == 0) return 0.0;
+  for (int a = 0; a < spheres; ++a) c->sphere_position[a] = state->position[c->sphere_particle[a]];
+  const double contact = 2.0 * config.radius_m;
+  // The grid is scratch: the pair list is independent of it (each build fills it anew).
+  buildNeighborGrid(c->sphere_position, contact, &c->grid, 1);
+  double twice = 0.0;  // every pair is met from both spheres
+  for (int a = 0; a < spheres; ++a) {
+    if (!c->sphere_position[a].allFinite()) continue;
+    forEachOtherStrandNeighbor(c->grid, c->sphere_position, c->grid.strand_of[a],
+                               c->sphere_position[a], contact, [&](uint32_t b, double) {
+                                 const double k = std::min(c->engagement[a], c->engagement[b]) *
+                                                  config.stiffness_n_per_m3 *
+                                                  c->sphere_length_m[a] * c->sphere_length_m[b];
+                                 twice += hairContactPairEnergy(
+                                     c->sphere_position[b] - c->sphere_position[a], contact, k);
+                               });
+  }
+  return 0.5 * twice;
+}
+
 void prepareHairContact(const HairModel& model, const HairContactConfig& config,
                         HairContactState* c) {
   if (c->particles == model.particleCount() && c->radius_m == config.radius_m &&

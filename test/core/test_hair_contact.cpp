@@ -44,8 +44,9 @@ SolverConfig contactConfig() {
   return c;
 }
 
-/// The contact's potential energy: sum over touching sphere pairs of 1/2 a K l_i l_j (2r - d)^2
-/// (a = the smaller engagement), each pair once; O(spheres^2), for small scenes.
+/// The contact's potential energy written out independently of hairContactEnergy (which energy()
+/// adds): sum over touching sphere pairs of 1/2 a K l_i l_j (2r - d)^2 (a = the smaller
+/// engagement), each pair once; O(spheres^2), for small scenes.
 double contactEnergy(const HairModel& m, const HairContactConfig& c, const HairState& s) {
   const HairContactState& hc = s.hair_contact;
   if (!c.enabled) return 0.0;
@@ -322,7 +323,9 @@ TEST(HairContact, RampAndTaperAddNoEnergy) {
   for (int f = 0; f < 120; ++f) {
     StepStats stats;
     step(m, c, StepInputs{Pose(), Pose()}, kFrame, &s, &stats);
-    const double e = energy(m, c, Pose(), &s).total() + contactEnergy(m, c.hair_contact, s);
+    const EnergyParts parts = energy(m, c, Pose(), &s);
+    const double e = parts.total();  // the contact's penalty included
+    EXPECT_NEAR(parts.hair_contact, contactEnergy(m, c.hair_contact, s), 1e-15 + 1e-12 * e);
     if (touching_frames == 0 && stats.hair_contacts == 0) {
       before = e;
       continue;
@@ -359,13 +362,13 @@ TEST(HairContact, AStiffContactDoesNotRing) {
     HairState s = makeState(m, Pose(), Twist());
     prepareHairContact(m, c.hair_contact, &s.hair_contact);
     std::fill(s.hair_contact.engagement.begin(), s.hair_contact.engagement.end(), 1.0);
-    const double start = contactEnergy(m, c.hair_contact, s);
+    const double start = energy(m, c, Pose(), &s).total();
     ASSERT_GT(start, 0.0);
+    ASSERT_NEAR(start, contactEnergy(m, c.hair_contact, s), 1e-12 * start);  // all of it
     double worst = 0.0;
     for (int f = 0; f < 60; ++f) {
       step(m, c, StepInputs{Pose(), Pose()}, kFrame, &s, nullptr);
-      const double e = energy(m, c, Pose(), &s).total() + contactEnergy(m, c.hair_contact, s);
-      worst = std::max(worst, e);
+      worst = std::max(worst, energy(m, c, Pose(), &s).total());
     }
     EXPECT_LE(worst, start) << method;
     // Pushed apart (the roots stay 5 mm apart): the tips end at least 2 r apart.

@@ -24,7 +24,8 @@ struct EnergyParts {
   double stretch = 0.0;
   double bend = 0.0;
   double core = 0.0;
-  double total() const { return kinetic + gravity + stretch + bend + core; }
+  double hair_contact = 0.0;  ///< the hair contact's penalty (hairContactEnergy), when enabled.
+  double total() const { return kinetic + gravity + stretch + bend + core + hair_contact; }
 };
 /// Absolute kinetic energy (world frame). Uses state->scratch (no allocation).
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,

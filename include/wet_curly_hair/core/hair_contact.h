@@ -47,6 +47,19 @@ inline Vec3 hairContactPairForce(const Vec3& d, const Vec3& dv, double contact_m
   return hairContactPair(d, dv, contact_m, k, c, friction, m_eff, h).force;
 }
 
+/// The penalty's potential energy of one sphere pair, 1/2 k (2r - |d|)^2 while they touch (the
+/// push of hairContactPair is its negative gradient when c = 0 and mu = 0), J.
+inline double hairContactPairEnergy(const Vec3& d, double contact_m, double k) {
+  const double r = d.norm();
+  return r < contact_m ? 0.5 * k * (contact_m - r) * (contact_m - r) : 0.0;
+}
+
+/// The contact's potential energy in the state: the sum of hairContactPairEnergy over the
+/// touching sphere pairs of different strands, each with its engaged stiffness
+/// min(a_i, a_j) K l_i l_j, J. Prunes the spheres first when needed; uses the contact's grid as
+/// scratch (the pair list is kept).
+double hairContactEnergy(const HairModel& model, const HairContactConfig& config, HairState* state);
+
 /// One step of the ramp variable a of a sphere (docs/hair_contact.md): toward 1 at h / ramp
 /// while touching, toward 0 at h / taper otherwise. A pair's stiffness is min(a_i, a_j) K l_i l_j.
 double hairContactEngagement(double a, bool touching, double h, double ramp_s, double taper_s);
