@@ -28,9 +28,11 @@ Criteria (each run; a run passes when it meets all five):
                      energy over a strand length, g0 = 9.81 m/s^2, L = 0.25 m).
            In scenes whose saturation changes during the run the wet curl force (eqs. 6-9), which is
            not part of E, does work on the hair; there only the final energy is judged, after the
-           hair is dry again: E_final <= E_0 + E_in + slack. In the two scenes that start inside
-           the head or an obstacle (`# energy-reference: first-step` in the scene) the first
-           step's push-out adds energy by design; there E_0 is the energy after the first step.
+           hair is dry again: E_final <= E_0 + E_in + slack. In the three scenes that start inside
+           the head, an obstacle or (with hair contact) each other (`# energy-reference:
+           first-step` in the scene) the first step's push-out adds energy by design; there E_0
+           is the energy after the first step. With hair contact on, E includes the contact's
+           penalty.
   repairs  no strand was repaired (JSON `repairs` = 0). A repair is the solver restoring a strand
            that went non-finite or past 3x the strain limit; the tables give the count.
 
