@@ -188,7 +188,9 @@ void checkOctomapInput(const std::string& bytes, bool* accepted) {
   ASSERT_TRUE(tree->writeBinaryConst(bt));
   std::unique_ptr<octomap::OcTree> again;
   EXPECT_TRUE(octreeFromFileContents(bt.str(), &again, &why)) << why;
-  if (again) EXPECT_EQ(again->size(), tree->size());
+  if (again) {
+    EXPECT_EQ(again->size(), tree->size());
+  }
 }
 
 TEST(ParserRegressions, OctomapInputs) {
