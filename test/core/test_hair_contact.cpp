@@ -35,6 +35,15 @@ void addStraightStrand(Groom* g, const Vec3& root, const Vec3& dir, int n, doubl
   g->root_normals.push_back(dir);
 }
 
+/// Two straight strands of 32 particles (8 mm edges) hanging side by side, roots `gap` m apart
+/// along x (0: one strand given twice).
+Groom parallelStrands(double gap) {
+  Groom g;
+  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), 32, 0.008);
+  addStraightStrand(&g, Vec3(gap, 0, -0.3), Vec3(0, 0, -1), 32, 0.008);
+  return g;
+}
+
 /// The solver configuration of the scenes: no head, contact on.
 SolverConfig contactConfig() {
   SolverConfig c;
@@ -64,15 +73,6 @@ double contactEnergy(const HairModel& m, const HairContactConfig& c, const HairS
           e += 0.5 * k * (contact - d) * (contact - d);
         }
   return e;
-}
-
-/// Smallest distance between a particle of strand 0 and one of strand 1.
-double strandGap(const HairModel& m, const HairState& s) {
-  double gap = 1e9;
-  for (int i = m.strandBegin(0); i < m.strandBegin(0) + m.strandSize(0); ++i)
-    for (int j = m.strandBegin(1); j < m.strandBegin(1) + m.strandSize(1); ++j)
-      gap = std::min(gap, (s.position[i] - s.position[j]).norm());
-  return gap;
 }
 
 }  // namespace
@@ -225,11 +225,9 @@ TEST(HairContact, StrandsThrownTogetherStopAtTheContactDistance) {
   // has to hold it: the strands never come closer than 2 r minus that distance (with the
   // stiffness at 1 % they come 1.8 mm closer still). Without contact they pass through.
   for (bool on : {true, false}) {
-    Groom g;
+    const Groom g = parallelStrands(0.02);
     const int n = 32;
     const double edge = 0.008, v = 0.5;
-    addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, edge);
-    addStraightStrand(&g, Vec3(0.02, 0, -0.3), Vec3(0, 0, -1), n, edge);
     SolverConfig c = contactConfig();
     c.hair_contact.enabled = on;
     c.gravity_m_s2 = Vec3::Zero();
@@ -309,10 +307,7 @@ TEST(HairContact, RampAndTaperAddNoEnergy) {
   // any contact, with contact off too.) Raising the stiffness on a compressed pair adds
   // 1/2 da k d^2: the full damping during the ramp (Iben) must take out more than that; with
   // the damping off this fails by two thirds of the energy before contact.
-  Groom g;
-  const int n = 32;
-  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
-  addStraightStrand(&g, Vec3(0.03, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
+  const Groom g = parallelStrands(0.03);
   SolverConfig c = contactConfig();
   c.gravity_m_s2 = Vec3::Zero();
   const HairModel m = makeModel(g, c);
@@ -349,10 +344,8 @@ TEST(HairContact, AStiffContactDoesNotRing) {
   // its own start velocity instead of the pair's (the energy rises by half, midpoint); and at
   // four times the default stiffness (midpoint: 18 times the start; docs/hair_contact.md).
   for (const char* method : {"midpoint", "backward_euler"}) {
-    Groom g;
+    const Groom g = parallelStrands(0.005);
     const int n = 32;
-    addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
-    addStraightStrand(&g, Vec3(0.005, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
     SolverConfig c = contactConfig();
     c.gravity_m_s2 = Vec3::Zero();
     c.integrator.method = method;
@@ -383,10 +376,8 @@ TEST(HairContact, CoincidentStrandsArePushedApart) {
   // gives no force; the pair is pushed across the strand instead, the two ways opposite. The
   // tips end at least the contact distance apart, with the momentum of the pair kept (their
   // mean tip stays on the strand's line).
-  Groom g;
+  const Groom g = parallelStrands(0.0);
   const int n = 32;
-  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
-  addStraightStrand(&g, Vec3(0, 0, -0.3), Vec3(0, 0, -1), n, 0.008);
   SolverConfig c = contactConfig();
   c.gravity_m_s2 = Vec3::Zero();
   const HairModel m = makeModel(g, c);
