@@ -68,7 +68,9 @@ Trace simulate(const Setting& setting, int strands, double seconds) {
   c.collision.head_enabled = strands > 1;
   c.cohesion.mode = "off";
   c.integrator.method = setting.method;
-  c.integrator.substep_s = setting.substep_s;
+  // The explicit settings mean "at most substep_s": at fine resolutions its stability bound,
+  // which buildModel reads off the springs (a substep past it is refused).
+  c.integrator.substep_s = setting.method == "explicit" ? 1e-7 : setting.substep_s;
   HairModel m;
   std::string why;
   Trace t;
@@ -78,7 +80,9 @@ Trace simulate(const Setting& setting, int strands, double seconds) {
     std::exit(2);
   }
   for (double l : m.strand_length_m) t.length_m += l / m.strandCount();  // the mean
-  t.substep_used_s = effectiveSubstep(m, c);
+  if (setting.method == "explicit")
+    c.integrator.substep_s = std::min(setting.substep_s, m.explicit_substep_bound_s);
+  t.substep_used_s = c.integrator.substep_s;
   HeadMotionConfig motion;
   motion.type = "nod";  // the built-in scene's: 0.5 Hz, 0.3 rad
   HairState s = makeState(m, headPose(motion, 0.0), headTwist(motion, 0.0));

@@ -1,6 +1,8 @@
 #include "wet_curly_hair/core/model.h"
 
 #include <cmath>
+#include <cstdio>
+#include <utility>
 
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
@@ -65,8 +67,29 @@ bool buildModel(const Groom& groom, double linear_density_kg_per_m, const HeadSh
       return false;
     }
   }
-  buildModelUnchecked(groom, linear_density_kg_per_m, head, config, model, true);
+  HairModel built;
+  buildModelUnchecked(groom, linear_density_kg_per_m, head, config, &built, true);
+  if (!checkExplicitSubstep(built, config, why)) return false;
+  *model = std::move(built);
   return true;
+}
+
+bool checkExplicitSubstep(const HairModel& model, const SolverConfig& config, std::string* why) {
+  const double bound = model.explicit_substep_bound_s;
+  if (config.integrator.method != "explicit" || bound <= 0.0 ||
+      config.integrator.substep_s <= bound)
+    return true;
+  if (why) {
+    char text[400];
+    std::snprintf(text, sizeof text,
+                  "solver.integrator.substep_s: %.3g s is past the explicit integrator's stability "
+                  "bound for this groom, %.3g s (%.1f of 2 / omega_max on its stiffest particle; "
+                  "the bound shrinks with the edge length); set at most %.3g s, or use an "
+                  "implicit integrator (solver.integrator.method: midpoint, the default)",
+                  config.integrator.substep_s, bound, kExplicitStabilityFraction, bound);
+    *why = text;
+  }
+  return false;
 }
 
 Vec3List makeHelix(int count, double edge_m, double radius_m, double pitch_m) {
@@ -184,7 +207,10 @@ void allSpringConstants(const SolverConfig& config, bool stabilize, HairModel* m
 
 bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why) {
   if (!config.validate("solver.", why)) return false;
-  allSpringConstants(config, true, model);
+  HairModel updated = *model;
+  allSpringConstants(config, true, &updated);
+  if (!checkExplicitSubstep(updated, config, why)) return false;
+  *model = std::move(updated);
   return true;
 }
 

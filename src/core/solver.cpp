@@ -16,16 +16,9 @@
 
 namespace wet_curly_hair {
 
-double effectiveSubstep(const HairModel& model, const SolverConfig& config) {
-  double h = config.integrator.substep_s;
-  if (config.integrator.method == "explicit" && model.explicit_substep_bound_s > 0.0)
-    h = std::min(h, model.explicit_substep_bound_s);
-  return h;
-}
-
-int substepCount(const HairModel& model, const SolverConfig& config, double dt_s) {
+int substepCount(const SolverConfig& config, double dt_s) {
   if (!(dt_s > 0.0)) return 0;
-  return std::max(1, static_cast<int>(std::ceil(dt_s / effectiveSubstep(model, config) - 1e-9)));
+  return std::max(1, static_cast<int>(std::ceil(dt_s / config.integrator.substep_s - 1e-9)));
 }
 
 int dampingPassCount(const HairModel& model, const SolverConfig& config, double h) {
@@ -424,7 +417,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
           HairState* state, StepStats* stats) {
   StepStats local;
   const double wall_start = inputs.clock ? inputs.clock() : 0.0;
-  const int nsub = substepCount(model, config, dt_s);
+  const int nsub = substepCount(config, dt_s);
   local.substeps = nsub;
   local.substep_s = nsub > 0 ? dt_s / nsub : 0.0;
   if (nsub == 0) {

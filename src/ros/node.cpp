@@ -146,9 +146,9 @@ void WetCurlyHairNode::init() {
       "wet_curly_hair: %s; %d strands, %d particles; frame %.6f s (%.3g Hz) in %d substeps; "
       "head pose %s -> %s over tf2 (wait <= %.3f s); %zu analytic obstacle(s); cohesion %s",
       scene_source_.c_str(), model_.strandCount(), model_.particleCount(), frame_s_,
-      config_.publish_rate, substepCount(model_, scene_.solver, frame_s_),
-      config_.world_frame.c_str(), config_.head_frame.c_str(), config_.tf_timeout_s,
-      obstacles_.analytic.size(), scene_.solver.cohesion.mode.c_str());
+      config_.publish_rate, substepCount(scene_.solver, frame_s_), config_.world_frame.c_str(),
+      config_.head_frame.c_str(), config_.tf_timeout_s, obstacles_.analytic.size(),
+      scene_.solver.cohesion.mode.c_str());
 }
 
 WetCurlyHairNode::~WetCurlyHairNode() {
@@ -466,7 +466,7 @@ void WetCurlyHairNode::fillStatusLocked(Status* s) {
   s->step = step_;
   s->reset_count = reset_count_;
   s->frame_s = frame_s_;
-  s->substeps = substepCount(model_, scene_.solver, frame_s_);
+  s->substeps = substepCount(scene_.solver, frame_s_);
   s->substep_s = frame_s_ / std::max(1, s->substeps);
   s->skipped_frames = skipped_frames_;
   s->markers_published = markers_published_;
@@ -917,6 +917,20 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     return true;
   }
   if (rebuild && !report.skipped.empty()) ROS_WARN("groom_file.file: %s", report.warning().c_str());
+  if (!rebuild) {
+    // Stiffness, damping and curl weight live in the model as per-edge constants, and the new
+    // constants (or a new substep) may put the explicit substep past its stability bound:
+    // computed on a copy, committed below. Only parameter requests change model_, and they are
+    // serialised.
+    {
+      std::lock_guard<std::mutex> lock(sim_mutex_);
+      model = model_;
+    }
+    if (!updateSpringConstants(copy.solver, &model, &why)) {
+      res.message = "refused, nothing changed: " + why;
+      return true;
+    }
+  }
   const io::ObstacleMapConfig& old_map = scene_.obstacle_map;  // params_mutex_ keeps it
   const io::ObstacleMapConfig& new_map = copy.obstacle_map;
   const bool map_changed = old_map.file != new_map.file || old_map.offset_m != new_map.offset_m ||
@@ -944,14 +958,10 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     scene_ = copy;
     obstacles_.analytic = scene_.obstacles;
     water_active_ = water_active_ || scene_.water.enabled;
+    model_ = std::move(model);
     if (rebuild) {
-      model_ = std::move(model);
       strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
       resetHairLocked(head_pose_, "parameters changed the model");
-    } else {
-      // Stiffness, damping and curl weight live in the model as per-edge constants; the copy
-      // was validated whole, so this cannot fail.
-      updateSpringConstants(scene_.solver, &model_, &why);
     }
   }
   res.reset = rebuild;

@@ -717,7 +717,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.strands_skipped = static_cast<int>(import_report.skipped.size());
   s.bend_stabilized_strands = model.bend_stabilized_strands;
   s.particles = model.particleCount();
-  s.substep_s = frame / substepCount(model, scene.solver, frame);
+  s.substep_s = frame / substepCount(scene.solver, frame);
   FrameMeasurements measurements(scene, model, obstacles, options, frames);
   measurements.timed(kMeasureRigidMotion, [&] { measureRigidMotion(scene, model, frames, &s); });
   s.water = scene.waterActive();

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <string>
 
 #include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/head_motion.h"
@@ -462,9 +464,9 @@ TEST(Solver, SubstepsSplitTheFrameEvenly) {
   SolverConfig c;
   c.integrator.substep_s = 2e-4;
   const HairModel m = makeModel(curlyGroom(2), c);  // explicit bound 2.3e-4 s at 32 particles
-  EXPECT_EQ(substepCount(m, c, 1.0 / 60.0), 84);
-  EXPECT_EQ(substepCount(m, c, 2e-4), 1);
-  EXPECT_EQ(substepCount(m, c, 0.0), 0);
+  EXPECT_EQ(substepCount(c, 1.0 / 60.0), 84);
+  EXPECT_EQ(substepCount(c, 2e-4), 1);
+  EXPECT_EQ(substepCount(c, 0.0), 0);
 }
 
 TEST(Solver, UpdatedSpringConstantsEqualARebuild) {
@@ -500,14 +502,17 @@ TEST(Solver, UpdatedSpringConstantsEqualARebuild) {
   EXPECT_EQ(updated.stretch_k, before.stretch_k);
 }
 
-TEST(Solver, ExplicitSubstepFollowsTheResolution) {
+TEST(Solver, ExplicitSubstepPastTheBoundIsRefused) {
   // symplectic Euler is stable for h omega_max < 2; omega_max^2 <= max_i 2 (k_{i-1} + k_i) / m_i
-  // grows as 1 / L^2 with per-length parameters, so the explicit substep shrinks with the edge.
-  // The implicit methods keep the configured substep.
+  // grows as 1 / L^2 with per-length parameters, so the explicit bound shrinks with the edge. A
+  // substep past it is refused with the bound named (never shortened behind the user's back);
+  // the implicit methods take any substep at any resolution.
   SolverConfig c;
-  c.integrator.substep_s = 2e-4;
+  c.integrator.method = "explicit";
+  c.integrator.substep_s = 1e-5;
   for (int particles : {32, 64, 128}) {
-    const HairModel m = makeModel(curlyGroom(2, particles), c);
+    const Groom g = curlyGroom(2, particles);
+    const HairModel m = makeModel(g, c);
     double lambda = 0.0;
     for (int s = 0; s < m.strandCount(); ++s) {
       const double shared = m.bend_k[s] + m.core_k[s] + m.curl_k[s];
@@ -519,12 +524,46 @@ TEST(Solver, ExplicitSubstepFollowsTheResolution) {
     }
     const double bound = kExplicitStabilityFraction * 2.0 / std::sqrt(lambda);
     EXPECT_NEAR(m.explicit_substep_bound_s, bound, 1e-12 * bound);
-    EXPECT_DOUBLE_EQ(effectiveSubstep(m, c), std::min(2e-4, bound)) << particles;
-    if (particles >= 64) EXPECT_LT(effectiveSubstep(m, c), 2e-4) << particles;
-    c.integrator.method = "backward_euler";
-    EXPECT_DOUBLE_EQ(effectiveSubstep(m, c), 2e-4);
+    if (particles >= 64) {
+      EXPECT_LT(bound, 2e-4) << particles;
+    }
+    std::string why;
+    HairModel out = m;
+    const HairModel before = out;
+    c.integrator.substep_s = bound * 0.999;
+    EXPECT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &out, &why))
+        << why;
+    c.integrator.substep_s = bound * 1.01;
+    out = before;
+    EXPECT_FALSE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &out, &why));
+    EXPECT_NE(why.find("solver.integrator.substep_s"), std::string::npos) << why;
+    char named[32];
+    std::snprintf(named, sizeof named, "%.3g s", bound);
+    EXPECT_NE(why.find(named), std::string::npos) << why << " should name " << named;
+    EXPECT_EQ(out.stretch_k, before.stretch_k);
+    EXPECT_EQ(substepCount(c, 1.0 / 60.0),
+              static_cast<int>(std::ceil(1.0 / 60.0 / c.integrator.substep_s - 1e-9)));
+    for (const char* method : {"backward_euler", "midpoint", "theta"}) {
+      c.integrator.method = method;
+      c.integrator.substep_s = 2e-3;
+      EXPECT_TRUE(checkExplicitSubstep(m, c, &why)) << method;
+    }
     c.integrator.method = "explicit";
+    c.integrator.substep_s = 1e-5;
   }
+  // A stiffer stretch spring lowers the bound under the substep: the update is refused, the
+  // model unchanged.
+  HairModel m = makeModel(curlyGroom(2), c);
+  c.integrator.substep_s = m.explicit_substep_bound_s * 0.9;
+  SolverConfig stiffer = c;
+  stiffer.stretch.axial_stiffness_n *= 4.0;
+  const HairModel before = m;
+  std::string why;
+  EXPECT_FALSE(updateSpringConstants(stiffer, &m, &why));
+  EXPECT_NE(why.find("solver.integrator.substep_s"), std::string::npos) << why;
+  EXPECT_EQ(m.stretch_k, before.stretch_k);
+  EXPECT_EQ(m.explicit_substep_bound_s, before.explicit_substep_bound_s);
+  EXPECT_TRUE(updateSpringConstants(c, &m, &why)) << why;
 }
 
 TEST(Solver, HairDrapesOnTheHeadWithoutPassingThrough) {

@@ -216,7 +216,7 @@ TEST(SolverLanes, DistanceCacheIsExactOnAGridField) {
   c.integrator.method = "theta";
   c.integrator.substep_s = 1e-3;
   const uint64_t in_reach = one.total.strands_near_obstacles * (lanes.model.strandSize(0) - 1) *
-                            substepCount(lanes.model, c, 1.0 / 60.0);
+                            substepCount(c, 1.0 / 60.0);
   EXPECT_LT(lanes.total.obstacle_particle_substeps, in_reach / 2);
   EXPECT_EQ(lanes.total.obstacle_particle_substeps, one.total.obstacle_particle_substeps);
 }

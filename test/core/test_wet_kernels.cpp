@@ -67,7 +67,9 @@ TEST(Adhesion, KernelZeroOutsideItsBandFiniteEverywherePeakAtThreeQuarters) {
   for (bool literal : {false, true}) {
     const double h = 0.01;
     for (double r : {-1.0, 0.0, 0.001, 0.005, 0.01 + 1e-12, 0.02, 1e9}) {
-      if (r <= 0.5 * h || r > h) EXPECT_EQ(adhesionKernel(r, h, literal), 0.0) << r;
+      if (r <= 0.5 * h || r > h) {
+        EXPECT_EQ(adhesionKernel(r, h, literal), 0.0) << r;
+      }
     }
     double best = 0.0, best_r = 0.0;
     for (int k = 0; k <= 100000; ++k) {

@@ -109,15 +109,22 @@ struct HairModel {
 /// (the smoothing lengths, masses and per-length spring constants enter the precompute of
 /// docs/physics.md §9.1, §2.11). Returns false with a reason on bad input: a refusal names a
 /// physical value (a strand that would hang past the strain limit under its own weight at any
-/// resolution), never the particle count.
+/// resolution), or an explicit substep past the groom's stability bound (checkExplicitSubstep).
 bool buildModel(const Groom& groom, double linear_density_kg_per_m, const HeadShape& head,
                 const SolverConfig& config, HairModel* model, std::string* why);
+
+/// The explicit integrator's stability (docs/physics.md §2.9): false, with the bound named in
+/// *why, when config asks the explicit method for a substep past model.explicit_substep_bound_s.
+/// A substep past it is refused, never run on velocity clamps or silently shortened, so that the
+/// substep a run reports is the one it was given. Always true for the implicit methods.
+bool checkExplicitSubstep(const HairModel& model, const SolverConfig& config, std::string* why);
 
 /// Recomputes the spring constants (stretch_k ... curl_k, the stability bounds) of a built model
 /// from the per-length parameters of `config`, the rest geometry unchanged: what a parameter
 /// change that does not rebuild the model (stiffness, damping, curl weight) applies. Without
 /// sag-free only: the sag-free rest state depends on the stiffnesses (io::applyParameters asks
-/// for a rebuild then). Returns false with a reason on an invalid config, model unchanged.
+/// for a rebuild then). Returns false with a reason on an invalid config or an explicit substep
+/// past the new constants' stability bound (checkExplicitSubstep), model unchanged.
 bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why);
 
 /// The helix of eq. (6) for one strand: `count` points with chord `edge_m` (A9), radius and rise

@@ -84,13 +84,10 @@ struct StepStats {
   void accumulate(const StepStats& o);
 };
 
-/// The largest substep the solver uses: config's substep_s, and for the explicit integrator at
-/// most the model's stability bound (HairModel::explicit_substep_bound_s), so that refining a
-/// strand refines the substep with it where stability needs it.
-double effectiveSubstep(const HairModel& model, const SolverConfig& config);
-
-/// Number of equal substeps a step of dt_s is split into so that none exceeds effectiveSubstep.
-int substepCount(const HairModel& model, const SolverConfig& config, double dt_s);
+/// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s.
+/// For the explicit integrator, buildModel and updateSpringConstants refuse a substep_s past the
+/// groom's stability bound (checkExplicitSubstep, model.h): it is never shortened here.
+int substepCount(const SolverConfig& config, double dt_s);
 
 /// Damping passes used for substep h: config's minimum, raised until tau = h / n satisfies the
 /// explicit damping bound tau <= 0.9 / (2 max(c / m)) (HairModel::max_damping_per_mass).
