@@ -77,7 +77,7 @@ check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scalin
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
-  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^Shape distributions over the whole run' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
 rm -f "$out/b/scaling.png"
 "$bench" --replot --out "$out/b" > /dev/null 2>&1
 check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"
