@@ -211,6 +211,27 @@ def target(out, t):
         table(full, "Full wet model: the dynamics plus the per-frame cohesion display pass (exact, "
               "or the lattice at 4, 3, 2 nodes per radius, in float; grid4_double: in double), "
               "errors of the output positions p^w:\n")
+    shape_table(out, [r for r in t if r.get("tip_height_w1_m")])
+
+
+def shape_table(out, rows):
+    """The shape distributions pooled over the whole run against the reference's (Wasserstein-1
+    and Kolmogorov-Smirnov, core/shape_stats.h): the reference check's row is the floor."""
+    if not rows:
+        return
+    out.append("Shape distributions over the whole run (every output frame after the first) against "
+               "the reference's: Wasserstein-1 distance (W1) of tip height, tip curl radius and "
+               "clump distance, and the largest Kolmogorov-Smirnov statistic of the three. The "
+               "reference checks' rows are the floor.\n")
+    out.append("| integrator | substep | strands in lanes | cohesion | tip height W1, mm "
+               "| curl radius W1, um | clump distance W1, um | largest KS |")
+    out.append("|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        ks = max(float(r[k + "_ks"]) for k in ("tip_height", "curl_radius", "clump_distance"))
+        out.append("| %s | %s | %s | %s | %.3f | %.1f | %.1f | %.4f |" % (
+            r["integrator"], r["substep_s"], "yes" if r["strand_lanes"] == "1" else "no",
+            r["cohesion"], 1e3 * float(r["tip_height_w1_m"]), 1e6 * float(r["curl_radius_w1_m"]),
+            1e6 * float(r["clump_distance_w1_m"]), ks))
 
 
 def lanes(out, rows_):

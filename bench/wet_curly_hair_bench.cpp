@@ -4,10 +4,14 @@
 // explicit integrator at a substep 16 times smaller than the smallest benchmarked, checked against
 // one 32 times smaller), and writes per setting: wall seconds per simulated second (median of
 // --repeats runs, solver step only), RMS and max particle error against the reference over the
-// output frames divided by the mean strand length, and whether the run stayed stable. Then the
-// scaling runs: cost per particle-substep against strand count, 1 and 2 threads. CSV files and,
-// with gnuplot, PNG charts go to --out. Every run goes through io::runScene, the offline runner's
-// library, so `wet_curly_hair_run --integrator NAME --substep S --threads N` reproduces a point.
+// output frames divided by the mean strand length, whether the run stayed stable, and how far the
+// distributions of tip height, tip curl radius and clump distance, pooled over every output frame
+// after the first, lie from the reference's (Wasserstein-1 in m and per the reference's spread,
+// Kolmogorov-Smirnov; core/shape_stats.h): measures that still mean something where strands part
+// on a knife edge and the pointwise error does not. Then the scaling runs: cost per
+// particle-substep against strand count, 1 and 2 threads. CSV files and, with gnuplot, PNG charts
+// go to --out. Every run goes through io::runScene, the offline runner's library, so
+// `wet_curly_hair_run --integrator NAME --substep S --threads N` reproduces a point.
 //
 //   wet_curly_hair_bench --out docs/bench            # the long form (tens of minutes)
 //   wet_curly_hair_bench --quick --out /tmp/bench    # a smoke run (seconds): no timing claims
@@ -26,8 +30,10 @@
 #include <vector>
 
 #include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/shape_stats.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/io/scene_setup.h"
 #include "wet_curly_hair/runner/offline_run.h"
 
 namespace {
@@ -131,7 +137,21 @@ struct RunResult {
   io::RunSummary summary;
   std::vector<wet_curly_hair::Vec3List> frames;      ///< output positions per frame (when kept)
   std::vector<wet_curly_hair::Vec3List> sim_frames;  ///< simulated positions (when kept)
+  /// Shape samples (tip height, tip curl radius, clump distance) pooled over every output frame
+  /// after the first, of the output and of the simulated positions (when kept).
+  wet_curly_hair::ShapeSamples shape, sim_shape;
 };
+
+/// Appends to *to what was appended to `from` since it held `sizes` (the three sizes).
+void copyTail(const wet_curly_hair::ShapeSamples& from, const size_t sizes[3],
+              wet_curly_hair::ShapeSamples* to) {
+  auto tail = [](const std::vector<double>& a, size_t n, std::vector<double>* b) {
+    b->insert(b->end(), a.begin() + n, a.end());
+  };
+  tail(from.tip_height_m, sizes[0], &to->tip_height_m);
+  tail(from.curl_radius_m, sizes[1], &to->curl_radius_m);
+  tail(from.clump_distance_m, sizes[2], &to->clump_distance_m);
+}
 
 bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool keep_frames,
              RunResult* result, std::string* why, bool stage_timing = false) {
@@ -149,12 +169,62 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   options.stage_timing = stage_timing;  // clock reads cost: off for the cost figures
   result->frames.clear();
   result->sim_frames.clear();
+  result->shape = result->sim_shape = {};
+  wet_curly_hair::HairModel model;
+  wet_curly_hair::MetricScratch scratch;
+  if (keep_frames && !io::buildSceneModel(scene, &model, why)) return false;
   if (keep_frames)
-    options.on_frame = [&](int, const HairState& state) {
+    options.on_frame = [&](int f, const HairState& state) {
       result->frames.push_back(state.wet_position);
       result->sim_frames.push_back(state.position);
+      if (f == 0) return;  // the initial state: the same in every run
+      const wet_curly_hair::Pose pose =
+          wet_curly_hair::headPose(scene.motion, f * scene.run.frame_s);
+      auto sample = [&](const wet_curly_hair::Vec3List& x, wet_curly_hair::ShapeSamples* out) {
+        wet_curly_hair::appendShapeSamples(model, x, state.saturation, pose,
+                                           scene.run.clump_search_m, &scratch, out, threads);
+      };
+      const wet_curly_hair::ShapeSamples& s = result->shape;
+      const size_t sizes[3] = {s.tip_height_m.size(), s.curl_radius_m.size(),
+                               s.clump_distance_m.size()};
+      sample(state.wet_position, &result->shape);
+      // Without the cohesion display pass the output positions are the simulated ones.
+      if (state.wet_position == state.position)
+        copyTail(result->shape, sizes, &result->sim_shape);
+      else
+        sample(state.position, &result->sim_shape);
     };
   return io::runScene(scene, options, &result->summary, why);
+}
+
+/// CSV columns of the shape distances (compareShapes), appended after the pointwise ones.
+const char* kShapeHeader =
+    ",tip_height_w1_m,tip_height_w1_per_spread,tip_height_ks,curl_radius_w1_m,"
+    "curl_radius_w1_per_spread,curl_radius_ks,clump_distance_w1_m,clump_distance_w1_per_spread,"
+    "clump_distance_ks";
+
+std::string fmt(double v) {
+  char b[64];
+  std::snprintf(b, sizeof(b), "%.6g", v);
+  return b;
+}
+
+std::string shapeColumns(const wet_curly_hair::ShapeDistance& d) {
+  std::string out;
+  for (const wet_curly_hair::SampleDistance* s : {&d.tip_height, &d.curl_radius, &d.clump_distance})
+    out += "," + fmt(s->w1) + "," + fmt(s->w1 / s->spread_b) + "," + fmt(s->ks);
+  return out;
+}
+
+/// One line: each shape distance in mm, per the reference's spread, and the KS statistic.
+void printShape(const char* prefix, const wet_curly_hair::ShapeDistance& d) {
+  const char* names[] = {"tip height", "curl radius", "clump distance"};
+  const wet_curly_hair::SampleDistance* s[] = {&d.tip_height, &d.curl_radius, &d.clump_distance};
+  std::printf("%s shape W1 (mm, /spread, KS):", prefix);
+  for (int k = 0; k < 3; ++k)
+    std::printf("%s %s %.3f, %.3f, %.3f", k ? ";" : "", names[k], 1e3 * s[k]->w1,
+                s[k]->w1 / s[k]->spread_b, s[k]->ks);
+  std::printf("\n");
 }
 
 struct Error {
@@ -205,12 +275,6 @@ double median(std::vector<double> v) {
 /// twice the strain limit (the explicit stretch spring's blow-up shows there first).
 bool stable(const io::RunSummary& s, double strain_limit) {
   return s.finite && s.repairs == 0 && s.max_strain_before_limit <= 2.0 * strain_limit;
-}
-
-std::string fmt(double v) {
-  char b[64];
-  std::snprintf(b, sizeof(b), "%.6g", v);
-  return b;
 }
 
 bool writeFile(const std::string& path, const std::string& text) {
@@ -428,10 +492,12 @@ int main(int argc, char** argv) {
     const Setting check{"explicit", smallest / 32.0};
     std::ostringstream csv;
     csv << "scene,integrator,substep_s,wall_s_per_sim_s,rms_error,max_error,"
-           "max_strain_before_limit,repairs,stable,realtime_factor,runs\n";
+           "max_strain_before_limit,repairs,stable,realtime_factor,runs"
+        << kShapeHeader << "\n";
     std::ostringstream refcsv;
     refcsv << "scene,reference_substep_s,check_substep_s,rms_difference,max_difference,"
-              "reference_wall_s\n";
+              "reference_wall_s"
+           << kShapeHeader << "\n";
     for (const BenchScene& b : benchScenes()) {
       if (!opt.only_scenes.empty() && std::find(opt.only_scenes.begin(), opt.only_scenes.end(),
                                                 b.name) == opt.only_scenes.end())
@@ -451,16 +517,19 @@ int main(int argc, char** argv) {
         return 2;
       }
       const Error converged = frameError(ref.frames, chk.frames, length);
+      const wet_curly_hair::ShapeDistance ref_shape = compareShapes(chk.shape, ref.shape);
       refcsv << b.name << "," << fmt(reference.substep_s) << "," << fmt(check.substep_s) << ","
              << fmt(converged.rms) << "," << fmt(converged.max) << "," << fmt(ref.summary.wall_s)
-             << "\n";
+             << shapeColumns(ref_shape) << "\n";
       std::printf("%-15s reference %.3g s vs %.3g s: RMS %.2e, max %.2e of strand length\n",
                   b.name.c_str(), reference.substep_s, check.substep_s, converged.rms,
                   converged.max);
+      printShape((b.name + " reference").c_str(), ref_shape);
       for (const Setting& setting : settings) {
         std::vector<double> walls;
         RunResult run;
         Error err;
+        wet_curly_hair::ShapeDistance shape;
         for (int r = 0; r < opt.repeats; ++r) {
           if (!runOnce(scene, setting, opt.threads, r == 0, &run, &why)) {
             std::fprintf(stderr, "wet_curly_hair_bench: %s %s: %s\n", b.name.c_str(),
@@ -468,6 +537,7 @@ int main(int argc, char** argv) {
             return 2;
           }
           if (r == 0) err = frameError(run.frames, ref.frames, length);
+          if (r == 0) shape = compareShapes(run.shape, ref.shape);
           walls.push_back(run.summary.wall_s / run.summary.sim_s);
         }
         const double cost = median(walls);
@@ -476,10 +546,11 @@ int main(int argc, char** argv) {
             << fmt(cost) << "," << fmt(err.rms) << "," << fmt(err.max) << ","
             << fmt(run.summary.max_strain_before_limit) << "," << run.summary.repairs << ","
             << (ok ? 1 : 0) << "," << fmt(cost > 0 ? 1.0 / cost : 0.0) << "," << opt.repeats
-            << "\n";
+            << shapeColumns(shape) << "\n";
         std::printf("%-15s %-15s %-9.3g cost %8.4f s/s  RMS %.2e  max %.2e  %s\n", b.name.c_str(),
                     setting.integrator.c_str(), setting.substep_s, cost, err.rms, err.max,
                     ok ? "stable" : "UNSTABLE");
+        printShape("               ", shape);
         std::fflush(stdout);
       }
     }
@@ -704,27 +775,35 @@ int main(int argc, char** argv) {
         "(%.3f s): RMS %.2e, max %.2e (output positions p^w: RMS %.2e, max %.2e)\n",
         strands, smallest / 16.0, smallest / 32.0, whole.rms, whole.max, horizon_tolerance, horizon,
         (horizon - 1) / fps, converged.rms, converged.max, converged_out.rms, converged_out.max);
+    // The shape distributions pooled over the whole run (every output frame after the first):
+    // the references' distance from each other is the floor of any setting's.
+    const wet_curly_hair::ShapeDistance ref_shape_sim = compareShapes(chk.sim_shape, ref.sim_shape);
+    const wet_curly_hair::ShapeDistance ref_shape_out = compareShapes(chk.shape, ref.shape);
+    printShape("target reference check (simulated positions)", ref_shape_sim);
+    printShape("target reference check (output positions p^w)", ref_shape_out);
     std::ostringstream csv;
     csv << "integrator,substep_s,strand_lanes,cohesion,strands,threads,wall_s_per_sim_s,"
            "realtime_factor,rms_error,max_error,stable,runs,rms_error_whole_run,"
-           "max_error_whole_run,horizon_s\n";
+           "max_error_whole_run,horizon_s"
+        << kShapeHeader << "\n";
     const double horizon_s = (horizon - 1) / fps;
     csv << "reference_check,midpoint " << fmt(smallest / 16.0) << " vs " << fmt(smallest / 32.0)
         << ",1,off," << strands << "," << threads << "," << fmt(ref.summary.wall_s) << ",0,"
         << fmt(converged.rms) << "," << fmt(converged.max) << ",1,1," << fmt(whole.rms) << ","
-        << fmt(whole.max) << "," << fmt(horizon_s) << "\n";
+        << fmt(whole.max) << "," << fmt(horizon_s) << shapeColumns(ref_shape_sim) << "\n";
     csv << "reference_check_output,midpoint " << fmt(smallest / 16.0) << " vs "
         << fmt(smallest / 32.0) << ",1,exact," << strands << "," << threads << ","
         << fmt(ref.summary.wall_s) << ",0," << fmt(converged_out.rms) << ","
         << fmt(converged_out.max) << ",1,1," << fmt(frameError(ref.frames, chk.frames, length).rms)
         << "," << fmt(frameError(ref.frames, chk.frames, length).max) << "," << fmt(horizon_s)
-        << "\n";
+        << shapeColumns(ref_shape_out) << "\n";
     // Dynamics rows compare simulated positions, full-model rows the output positions.
     auto measure = [&](const io::SceneConfig& sc, const Setting& setting, const char* cohesion,
                        bool output) {
       std::vector<double> walls;
       RunResult run;
       Error err, err_whole;
+      wet_curly_hair::ShapeDistance shape;
       for (int r = 0; r < opt.repeats; ++r) {
         if (!runOnce(sc, setting, threads, r == 0, &run, &why)) return false;
         if (r == 0) {
@@ -732,6 +811,8 @@ int main(int argc, char** argv) {
           const auto& theirs = output ? ref.frames : ref.sim_frames;
           err = frameError(mine, theirs, length, horizon);
           err_whole = frameError(mine, theirs, length);
+          shape = output ? compareShapes(run.shape, ref.shape)
+                         : compareShapes(run.sim_shape, ref.sim_shape);
         }
         walls.push_back(run.summary.wall_s / run.summary.sim_s);
       }
@@ -741,12 +822,13 @@ int main(int argc, char** argv) {
           << "," << cohesion << "," << strands << "," << threads << "," << fmt(cost) << ","
           << fmt(1.0 / cost) << "," << fmt(err.rms) << "," << fmt(err.max) << "," << (ok ? 1 : 0)
           << "," << opt.repeats << "," << fmt(err_whole.rms) << "," << fmt(err_whole.max) << ","
-          << fmt(horizon_s) << "\n";
+          << fmt(horizon_s) << shapeColumns(shape) << "\n";
       std::printf(
           "target %-15s %-9.3g lanes %d cohesion %-12s cost %7.4f s/s (RTF %.2f)  RMS "
           "%.2e  max %.2e (whole run %.2e, %.2e)  %s\n",
           setting.integrator.c_str(), setting.substep_s, setting.lanes ? 1 : 0, cohesion, cost,
           1.0 / cost, err.rms, err.max, err_whole.rms, err_whole.max, ok ? "stable" : "UNSTABLE");
+      printShape("target         ", shape);
       std::fflush(stdout);
       return true;
     };

@@ -151,9 +151,14 @@ double nearestOtherStrand2(const MetricScratch& g, const Vec3& x, uint32_t stran
 
 }  // namespace
 
-double clumpDistance(const HairModel& model, const Vec3List& points,
-                     const std::vector<double>& saturation, double radius, MetricScratch* g,
-                     int threads, int strand_stride) {
+namespace {
+
+/// scratch->nearest[i]: the distance of every wet particle i of the sampled strands (every
+/// stride-th) to the nearest point of another strand, search_radius_m when farther or when the
+/// particle is not finite.
+void nearestOtherStrands(const HairModel& model, const Vec3List& points,
+                         const std::vector<double>& saturation, double radius, MetricScratch* g,
+                         int threads, int stride) {
   // Cells of half an edge: in a dense groom the nearest other strand is a ring or two away; at
   // most 16 rings out to the search radius where the hair is sparse.
   g->cell_m = std::max(0.5 * meanEdge(model, points), radius / 16.0);
@@ -161,7 +166,6 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
   buildParticleGrid(model, points, g);
   if (g->nearest.size() < points.size()) g->nearest.resize(points.size());
   const double r2max = radius * radius;
-  const int stride = std::max(1, strand_stride);
   const int sampled = (model.strandCount() + stride - 1) / stride;
   parallelFor(threads, Schedule::kDynamic, 64, sampled, [&](int k) {
     const int s = k * stride;
@@ -173,6 +177,15 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
       g->nearest[i] = std::sqrt(best2);
     }
   });
+}
+
+}  // namespace
+
+double clumpDistance(const HairModel& model, const Vec3List& points,
+                     const std::vector<double>& saturation, double radius, MetricScratch* g,
+                     int threads, int strand_stride) {
+  const int stride = std::max(1, strand_stride);
+  nearestOtherStrands(model, points, saturation, radius, g, threads, stride);
   // Summed in particle order: the same sum for any thread count.
   double sum = 0.0;
   long count = 0;
@@ -184,6 +197,16 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
     }
   }
   return count ? sum / count : 0.0;
+}
+
+void clumpDistanceSamples(const HairModel& model, const Vec3List& points,
+                          const std::vector<double>& saturation, double radius, MetricScratch* g,
+                          std::vector<double>* out, int threads, int strand_stride) {
+  const int stride = std::max(1, strand_stride);
+  nearestOtherStrands(model, points, saturation, radius, g, threads, stride);
+  for (int s = 0; s < model.strandCount(); s += stride)
+    for (int i = model.strandBegin(s); i < model.strandBegin(s) + model.strandSize(s); ++i)
+      if (saturation[i] > 0.0) out->push_back(g->nearest[i]);
 }
 
 double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
@@ -578,36 +601,44 @@ double headPenetration(const HairModel& model, const Vec3List& points, const Pos
   return worst;
 }
 
+bool strandTipCurl(const HairModel& model, const Vec3List& points, int s, CurlShape* out) {
+  const int begin = model.strandBegin(s), n = model.strandSize(s);
+  if (n < 5) return false;
+  double kappa_sum = 0.0, tau_sum = 0.0;
+  int samples = 0;
+  for (int i = begin + (2 * n) / 3; i + 3 < begin + n; ++i) {
+    const Vec3 e0 = points[i + 1] - points[i], e1 = points[i + 2] - points[i + 1],
+               e2 = points[i + 3] - points[i + 2];
+    const double l = (e0.norm() + e1.norm() + e2.norm()) / 3.0;
+    const Vec3 b0 = e0.cross(e1), b1 = e1.cross(e2);
+    if (b0.norm() < 1e-15 || b1.norm() < 1e-15 || l <= 0.0) {
+      ++samples;  // straight there: zero curvature
+      continue;
+    }
+    const double turn = std::atan2(b0.norm(), e0.dot(e1));  // angle between edges
+    const double twist = std::atan2(b0.cross(b1).dot(e1.normalized()), b0.dot(b1));
+    kappa_sum += 2.0 * std::sin(0.5 * turn) / l;  // circle through three points: exact
+    tau_sum += twist / l;
+    ++samples;
+  }
+  if (samples == 0) return false;
+  const double kappa = kappa_sum / samples, tau = tau_sum / samples;
+  const double k2 = kappa * kappa + tau * tau;
+  *out = CurlShape();
+  if (k2 > 0.0) {
+    out->radius_m = kappa / k2;
+    out->pitch_m = 2.0 * M_PI * std::abs(tau) / k2;
+  }
+  return true;
+}
+
 CurlShape tipCurlShape(const HairModel& model, const Vec3List& points) {
-  CurlShape out;
+  CurlShape out, strand;
   int strands = 0;
   for (int s = 0; s < model.strandCount(); ++s) {
-    const int begin = model.strandBegin(s), n = model.strandSize(s);
-    if (n < 5) continue;
-    double kappa_sum = 0.0, tau_sum = 0.0;
-    int samples = 0;
-    for (int i = begin + (2 * n) / 3; i + 3 < begin + n; ++i) {
-      const Vec3 e0 = points[i + 1] - points[i], e1 = points[i + 2] - points[i + 1],
-                 e2 = points[i + 3] - points[i + 2];
-      const double l = (e0.norm() + e1.norm() + e2.norm()) / 3.0;
-      const Vec3 b0 = e0.cross(e1), b1 = e1.cross(e2);
-      if (b0.norm() < 1e-15 || b1.norm() < 1e-15 || l <= 0.0) {
-        ++samples;  // straight there: zero curvature
-        continue;
-      }
-      const double turn = std::atan2(b0.norm(), e0.dot(e1));  // angle between edges
-      const double twist = std::atan2(b0.cross(b1).dot(e1.normalized()), b0.dot(b1));
-      kappa_sum += 2.0 * std::sin(0.5 * turn) / l;  // circle through three points: exact
-      tau_sum += twist / l;
-      ++samples;
-    }
-    if (samples == 0) continue;
-    const double kappa = kappa_sum / samples, tau = tau_sum / samples;
-    const double k2 = kappa * kappa + tau * tau;
-    if (k2 > 0.0) {
-      out.radius_m += kappa / k2;
-      out.pitch_m += 2.0 * M_PI * std::abs(tau) / k2;
-    }
+    if (!strandTipCurl(model, points, s, &strand)) continue;
+    out.radius_m += strand.radius_m;
+    out.pitch_m += strand.pitch_m;
     ++strands;
   }
   if (strands) {

@@ -36,8 +36,9 @@ sys.exit(0 if ok else 1)
 PY"
 # The target scene: the reference converged below the error it measures, the strand lanes
 # (float by default) give the error of one strand at a time (same dynamics in double) within
-# 1 % of it, and the full model's rows (exact and lattice cohesion) have output-position errors.
-check "target rows: candidates stable, lanes and per-strand errors equal, full-model errors" "/usr/bin/python3 - <<PY
+# 1 % of it, the full model's rows (exact and lattice cohesion) have output-position errors, and
+# every row has its shape distances.
+check "target rows: candidates stable, lanes and per-strand errors equal, full-model errors, shape distances" "/usr/bin/python3 - <<PY
 import csv, math, sys
 rows = list(csv.DictReader(open('$out/b/target.csv')))
 ref = [r for r in rows if r['integrator'] == 'reference_check']
@@ -50,6 +51,12 @@ ok = ok and float(ref[0]['rms_error']) < 0.1 * err[0]
 full = [r for r in runs if r['cohesion'] != 'off']
 ok = ok and sorted(r['cohesion'] for r in full) == ['exact', 'grid4']
 ok = ok and all(0 < float(r['rms_error']) <= float(r['max_error']) < 1 for r in full)
+# Shape distances on every row: the two references' too (the floor), Wasserstein-1 finite and
+# non-negative, Kolmogorov-Smirnov in [0, 1].
+for r in rows:
+  for s in ('tip_height', 'curl_radius', 'clump_distance'):
+    w1, ks = float(r[s + '_w1_m']), float(r[s + '_ks'])
+    ok = ok and math.isfinite(w1) and w1 >= 0 and 0 <= ks <= 1
 sys.exit(0 if ok else 1)
 PY"
 # Float or double: every lane layout ran the target scene's dynamics, stable, and float's error
@@ -70,7 +77,7 @@ check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scalin
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
-  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^Shape distributions over the whole run' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
 rm -f "$out/b/scaling.png"
 "$bench" --replot --out "$out/b" > /dev/null 2>&1
 check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"

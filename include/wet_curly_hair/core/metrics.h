@@ -47,6 +47,14 @@ double clumpDistance(const HairModel& model, const Vec3List& points,
                      const std::vector<double>& saturation, double search_radius_m,
                      MetricScratch* scratch, int threads = 1, int strand_stride = 1);
 
+/// clumpDistance's per-particle values: appends to *out, in particle order, the distance of every
+/// wet particle of the sampled strands (the values clumpDistance averages; one search serves
+/// both).
+void clumpDistanceSamples(const HairModel& model, const Vec3List& points,
+                          const std::vector<double>& saturation, double search_radius_m,
+                          MetricScratch* scratch, std::vector<double>* out, int threads = 1,
+                          int strand_stride = 1);
+
 /// Number of segment pairs of different strands closer than 2 * strand_radius_m (touching
 /// strands: segmentDistance below the contact distance), from `points`. Exact: the same count as
 /// the test of every pair (test_metrics). Each segment's box, grown by half the contact
@@ -106,7 +114,11 @@ struct CurlShape {
   double radius_m = 0.0;
   double pitch_m = 0.0;
 };
-/// Mean over strands of the curl shape of their tip third (mean curvature and torsion over it).
+/// Curl shape of strand s's tip third, from the mean discrete curvature and torsion over it
+/// (0, 0 where the tip third is straight). False, and *out unchanged, when the strand is too
+/// short for one sample of torsion there (fewer than 10 particles).
+bool strandTipCurl(const HairModel& model, const Vec3List& points, int strand, CurlShape* out);
+/// Mean over strands of strandTipCurl (the strands it leaves out are left out of the mean).
 CurlShape tipCurlShape(const HairModel& model, const Vec3List& points);
 
 /// Distance between segments [a0, a1] and [b0, b1] (m).
