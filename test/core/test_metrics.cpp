@@ -11,6 +11,7 @@
 #include <random>
 #include <vector>
 
+#include "strands_only.h"
 #include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/metrics.h"
 
@@ -49,15 +50,6 @@ void operator delete(void* p, size_t, std::align_val_t) noexcept { __libc_free(p
 void operator delete[](void* p, size_t, std::align_val_t) noexcept { __libc_free(p); }
 
 namespace {
-
-/// A model that only knows its strands (the measurements read nothing else of it).
-HairModel strandsOnly(const std::vector<int>& sizes) {
-  HairModel m;
-  m.strand_offsets = {0};
-  for (int n : sizes) m.strand_offsets.push_back(m.strand_offsets.back() + n);
-  m.rest_position_head.assign(m.strand_offsets.back(), Vec3::Zero());
-  return m;
-}
 
 /// Random-walk strands crowded into a box a few edges wide: many contacts, every orientation.
 /// With `lattice` > 0 every coordinate is a multiple of it, so points sit on cell boundaries

@@ -7,21 +7,13 @@
 #include <random>
 #include <vector>
 
+#include "strands_only.h"
 #include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/shape_stats.h"
 
 using namespace wet_curly_hair;
 
 namespace {
-
-/// A model that only knows its strands (the measurements read nothing else of it).
-HairModel strandsOnly(const std::vector<int>& sizes) {
-  HairModel m;
-  m.strand_offsets = {0};
-  for (int n : sizes) m.strand_offsets.push_back(m.strand_offsets.back() + n);
-  m.rest_position_head.assign(m.strand_offsets.back(), Vec3::Zero());
-  return m;
-}
 
 /// `count` points of a helix of radius r rising `pitch` per turn, `per_turn` points a turn,
 /// about the z axis through `centre`.
