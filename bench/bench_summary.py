@@ -283,6 +283,21 @@ def cohesion_choice(d):
     return best[0] if best else None
 
 
+def cohesion(out, rs):
+    out.append("\n## Cohesion display pass (fully wet, still head, 0.2 s)\n")
+    out.append("CPU per wet particle-frame, clump distance, and the output positions' RMS distance "
+               "from exact's over the run (and relative to exact's RMS displacement |p^w - p|).\n")
+    out.append("| strands | evaluation | us per wet particle-frame | clump distance, mm "
+               "| p^w vs exact, mm | relative |")
+    out.append("|---|---|---|---|---|---|")
+    for r in rs:
+        err = r.get("pw_rms_vs_exact_m")  # absent from files written before the column
+        out.append("| %s | %s | %s | %s | %s | %s |" % (
+            r["strands"], r["evaluation"], fmt(float(r["us_per_wet_particle_frame"])),
+            fmt(1e3 * float(r["clump_distance_m"]), 4), fmt(1e3 * float(err)) if err else "-",
+            ("%.2f %%" % (100 * float(r["pw_rms_vs_exact_rel"]))) if err else "-"))
+
+
 def write_defaults(d, common):
     """The chosen setting: among the integrators with a substep meeting 1 % on every scene, the
     one of lowest mean cost there; the cohesion evaluation from cohesion_choice."""
@@ -319,6 +334,8 @@ def main():
         target(out, rows(os.path.join(d, "target.csv")))
     if os.path.exists(os.path.join(d, "lanes.csv")):
         lanes(out, rows(os.path.join(d, "lanes.csv")))
+    if os.path.exists(os.path.join(d, "cohesion.csv")):
+        cohesion(out, rows(os.path.join(d, "cohesion.csv")))
     if os.path.exists(os.path.join(d, "gating.csv")):
         gating(out, rows(os.path.join(d, "gating.csv")))
     text = "\n".join(out) + "\n"
