@@ -666,24 +666,34 @@ int main(int argc, char** argv) {
   }
   if (opt.cohesion) {
     // The cohesion display pass on its own (it runs once per output frame, and its exact cost
-    // grows with the neighbours within h): CPU per wet particle-frame, exact and lattice.
-    // p^w never feeds back, so every evaluation sees the same dynamics:
-    // its output positions are compared with exact's frame by frame (RMS over the frames and
-    // particles, in mm, and relative to exact's RMS displacement |p^w - p|).
+    // grows with the neighbours within h): CPU per wet particle-frame, exact and the lattice at
+    // 4, 3 and 2 nodes per radius (the candidates of the lattice density). p^w never feeds back,
+    // so every evaluation sees the same dynamics: its output positions are compared with exact's
+    // frame by frame (RMS over the frames and particles, in m, relative to exact's RMS
+    // displacement |p^w - p| and to the strand length).
     std::ostringstream csv;
-    csv << "strands,evaluation,us_per_wet_particle_frame,clump_distance_m,"
-           "pw_rms_vs_exact_m,pw_rms_vs_exact_rel,runs\n";
+    csv << "strands,evaluation,cells_per_radius,us_per_wet_particle_frame,clump_distance_m,"
+           "pw_rms_vs_exact_m,pw_rms_vs_exact_rel,pw_rms_vs_exact_length,runs\n";
+    struct Evaluation {
+      const char* evaluation;
+      int cells;  ///< lattice nodes per kernel radius (grid only)
+    };
+    const std::vector<Evaluation> evaluations =
+        opt.quick ? std::vector<Evaluation>{{"exact", 4}, {"grid", 4}}
+                  : std::vector<Evaluation>{{"exact", 4}, {"grid", 4}, {"grid", 3}, {"grid", 2}};
     const std::vector<int> counts =
         opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000};
     for (int count : counts) {
       RunResult exact_frames;
       double displacement_rms = 0.0;
-      for (const char* evaluation : {"exact", "grid"}) {
+      for (const Evaluation& ev : evaluations) {
+        const std::string evaluation = ev.evaluation;
         BenchScene b{"cohesion",
                      "fully wet, still",
                      {{"saturation.root", "1"},
                       {"saturation.tip", "1"},
-                      {"solver.cohesion.evaluation", std::string("\"") + evaluation + "\""}},
+                      {"solver.cohesion.evaluation", "\"" + evaluation + "\""},
+                      {"solver.cohesion.grid_cells_per_radius", std::to_string(ev.cells)}},
                      "still"};
         io::SceneConfig scene;
         if (!makeScene(b, count, opt.quick ? 0.1 : 0.2, &scene, &why)) {
@@ -707,20 +717,21 @@ int main(int argc, char** argv) {
           std::fprintf(stderr, "wet_curly_hair_bench: cohesion: %s\n", why.c_str());
           return 2;
         }
-        if (std::string(evaluation) == "exact") {
+        if (evaluation == "exact") {
           exact_frames = frames;
           displacement_rms = frameError(frames.frames, frames.sim_frames, 1.0).rms;
         }
         const double error = frameError(frames.frames, exact_frames.frames, 1.0).rms;
         const double relative = displacement_rms > 0.0 ? error / displacement_rms : 0.0;
-        csv << count << "," << evaluation << "," << fmt(median(us)) << ","
-            << fmt(run.summary.clump_distance_m) << "," << fmt(error) << "," << fmt(relative)
-            << "," << repeats << "\n";
+        const double length = scene.groom.length_m;
+        csv << count << "," << evaluation << "," << ev.cells << "," << fmt(median(us)) << ","
+            << fmt(run.summary.clump_distance_m) << "," << fmt(error) << "," << fmt(relative) << ","
+            << fmt(error / length) << "," << repeats << "\n";
         std::printf(
-            "cohesion %6d strands %-6s %8.2f us per wet particle-frame, clump %.3f mm, "
-            "p^w vs exact RMS %.4f mm (%.2f %% of the displacement)\n",
-            count, evaluation, median(us), 1e3 * run.summary.clump_distance_m,
-            1e3 * error, 100.0 * relative);
+            "cohesion %6d strands %-6s %d %8.2f us per wet particle-frame, clump %.3f mm, "
+            "p^w vs exact RMS %.4f mm (%.2f %% of the displacement, %.3f %% of the length)\n",
+            count, evaluation.c_str(), ev.cells, median(us), 1e3 * run.summary.clump_distance_m,
+            1e3 * error, 100.0 * relative, 100.0 * error / length);
         std::fflush(stdout);
       }
     }

@@ -45,6 +45,14 @@ TEST(Config, CohesionEvaluationDefaultIsTheBenchmarksChoice) {
   const std::map<std::string, std::string> choice = benchChoice();
   ASSERT_EQ(choice.count("solver.cohesion.evaluation"), 1u);
   EXPECT_EQ(CohesionConfig().evaluation, choice.at("solver.cohesion.evaluation"));
+  // The lattice density, when the bench chose the lattice (a file from before the density was a
+  // candidate has none: the lattice then ran at 4 nodes per radius only).
+  if (choice.at("solver.cohesion.evaluation") == "grid") {
+    const int cells = choice.count("solver.cohesion.grid_cells_per_radius")
+                          ? std::stoi(choice.at("solver.cohesion.grid_cells_per_radius"))
+                          : 4;
+    EXPECT_EQ(CohesionConfig().grid_cells_per_radius, cells);
+  }
 }
 
 TEST(Config, ThreadsDefaultToEveryHardwareThread) {

@@ -186,12 +186,12 @@ struct CohesionConfig {
   /// How eq. (10) is evaluated (mode "ours"): "exact" sums over every neighbour within h;
   /// "grid" splats the particles onto a lattice of node spacing h / grid_cells_per_radius
   /// (trilinear) and evaluates the kernel at the nodes, at a cost per particle that does not
-  /// grow with the number of neighbours (docs/physics.md §7.3: error and cost). Default grid:
-  /// the bench's cohesion section measures the same clump distance as exact to 0.2 % at 100 to
-  /// 1,000 strands for 3-100 times less (docs/bench/defaults.txt, held by test_config); exact
-  /// stays for reference.
+  /// grow with the number of neighbours (docs/physics.md §7.3: error and cost). Default grid at
+  /// 3 nodes per radius: the cheapest evaluation the bench's cohesion section finds within 1 %
+  /// of exact's clump distance and 1 % of the strand length (RMS of p^w) at 100 to 1,000
+  /// strands (docs/bench/defaults.txt, held by test_config); exact stays for reference.
   std::string evaluation = "grid";
-  int grid_cells_per_radius = 4;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
+  int grid_cells_per_radius = 3;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
   /// "grid": the gathers read single-precision copies of the node sums and, like the own-strand
   /// share, evaluate the kernel in float (twice the SIMD lanes); particles whose other-strand
   /// weight is below 1e-3 of their own strand's, where float round-off would dominate the
