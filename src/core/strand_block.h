@@ -37,6 +37,9 @@ namespace detail {
 template <typename S>
 struct BlockArrays {
   V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
+  /// The forces of the parts the implicit solve holds (frame and filter gradients) at the start
+  /// of the substep, kept for the corrector (correctGradientParts).
+  V3<S>* held_force;
   M33<S>*block, *pivot_inverse;
   /// Per particle: the cross-strand forces' own block of the implicit solve (hair contact,
   /// HairContactState::external_block), zero on lanes without one.
@@ -71,7 +74,7 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   auto s1 = [&]() { return reinterpret_cast<S*>(take(1)); };
   BlockArrays<S> a;
   a.p = v3(), a.v = v3(), a.f = v3(), a.d = v3(), a.b = v3(), a.nu = v3(), a.v_start = v3();
-  a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3();
+  a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3(), a.held_force = v3();
   a.block = m3(), a.pivot_inverse = m3(), a.external_block = m3();
   a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
   a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
@@ -292,43 +295,47 @@ void elasticForces(Block<S>& blk) {
     a.f[i] += fs;
     a.f[i + 1] -= fs;
   }
+  if (core_local && !blk.plan.bend_frame_gradient) return;
+  // The parts through the filter and the frames, kept apart for the implicit corrector.
+  for (int i = 0; i < blk.n; ++i) a.held_force[i] = zero3<S>();
   if (!core_local) {
     // a.nu is free until the damping recomputes it.
     for (int i = 0; i < blk.edges; ++i) a.nu[i] = coreForce(a.b[i], a.core_rest[i], blk.core_k);
-    applyEdgeForcesThroughFilter(blk, a.nu);
+    applyEdgeForcesThroughFilter(blk, a.nu, a.held_force);
   }
-  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk);
+  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk, a.p, a.held_force);
+  for (int i = 0; i < blk.n; ++i) a.f[i] += a.held_force[i];
 }
 
 /// Forces g_i computed on the alpha_c-smoothed differences b_i (eq. 5) applied to the edges through
 /// the filter's transpose (smoothDifferencesAdjoint), so that the core spring is the gradient of
-/// its energy sum 1/2 k_c (|b_i| - |b0_i|)^2 (CoreSpringConfig::filter_gradient). In place.
+/// its energy sum 1/2 k_c (|b_i| - |b0_i|)^2 (CoreSpringConfig::filter_gradient): added to the
+/// particle forces f. g is overwritten.
 template <typename S>
-void applyEdgeForcesThroughFilter(Block<S>& blk, V3<S>* g) {
-  BlockArrays<S>& a = blk.a;
+void applyEdgeForcesThroughFilter(Block<S>& blk, V3<S>* g, V3<S>* f) {
   smoothDifferencesAdjoint(g, blk.n, blk.beta_core, g);
   for (int i = 0; i < blk.edges; ++i) {
-    a.f[i] += g[i];
-    a.f[i + 1] -= g[i];
+    f[i] += g[i];
+    f[i + 1] -= g[i];
   }
 }
 
-/// The bending force's part through the frames (BendConfig::frame_gradient, bend_gradient.h),
-/// lane by lane in double.
+/// The bending force's part through the frames (BendConfig::frame_gradient, bend_gradient.h) at
+/// the positions x, lane by lane in double, added to the particle forces f.
 template <typename S>
-void bendFrameGradientForces(Block<S>& blk) {
+void bendFrameGradientForces(Block<S>& blk, const V3<S>* x, V3<S>* f) {
   BlockArrays<S>& a = blk.a;
   StrandScratch& scr = *blk.scratch;
   for (int l = 0; l < blk.active; ++l) {
     for (int i = 0; i < blk.n; ++i) {
-      scr.bend_p[i] = lane(a.p[i], l) - lane(a.p_carry[i], l);
+      scr.bend_p[i] = lane(x[i], l) - lane(a.p_carry[i], l);
       scr.bend_force[i].setZero();
     }
     addBendFrameGradientForce(scr.bend_p.data(), blk.n, laneValue(blk.beta_bend, l),
                               blk.root_frame[l], &blk.model.bend_local_target[blk.begin[l]],
                               laneValue(blk.bend_k, l), scr.frame.data(), scr.smooth_bend.data(),
                               scr.bend_adjoint.data(), scr.bend_force.data());
-    for (int i = 1; i < blk.n; ++i) setLane(&a.f[i], l, lane(a.f[i], l) + scr.bend_force[i]);
+    for (int i = 1; i < blk.n; ++i) setLane(&f[i], l, lane(f[i], l) + scr.bend_force[i]);
   }
 }
 
@@ -445,7 +452,7 @@ void explicitVelocityUpdate(Block<S>& blk, const V3<S>& omega) {
       // Through the filter's transpose, as the core spring (elasticForces): then the damping's
       // power is -c_c sum (nu_i . b^_i)^2, never positive.
       for (int i = 0; i < blk.edges; ++i) a.rhs[i] = coreDampingForce(a.b[i], a.nu[i], blk.core_c);
-      applyEdgeForcesThroughFilter(blk, a.rhs);
+      applyEdgeForcesThroughFilter(blk, a.rhs, a.f);
     }
     for (int i = 1; i < n; ++i) a.v[i] += (tau * a.inv_m[i]) * a.f[i];
   }
@@ -500,6 +507,61 @@ void solveBlockTridiagonal(Block<S>& blk) {
     a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
 }
 
+/// The largest change of an edge over the corrector's lead, relative to the edge, at which the
+/// corrector still acts (it fades to nothing there): 5 % of an edge per half substep.
+/// Measured on the 4 Hz shake (docs/physics.md §2.6): with no such limit the corrector blows up
+/// at 1 ms and 1/240 s; with 2 %, 5 % or 10 % every method stays as bounded as with the parts
+/// taken at the start of the substep.
+constexpr double kGradientCorrectorTrust = 0.05;
+
+/// How far lane by lane the predicted half step x + lead u0 can be trusted: 1 - (r / trust)^2
+/// for the largest change r of an edge relative to its length, 0 from r = kGradientCorrectorTrust.
+template <typename S>
+S correctorTrust(const Block<S>& blk, const S& lead) {
+  const BlockArrays<S>& a = blk.a;
+  S worst = splat<S>(0.0);
+  for (int i = 0; i < blk.edges; ++i) {
+    const V3<S> e = a.p[i + 1] - a.p[i];
+    const V3<S> de = lead * (a.v[i + 1] - a.v[i]);
+    worst = vmax(worst, dot(de, de) / vmax(dot(e, e), splat<S>(1e-24)));
+  }
+  const double trust2 = kGradientCorrectorTrust * kGradientCorrectorTrust;
+  return vmax(splat<S>(0.0), splat<S>(1.0) - worst / splat<S>(trust2));
+}
+
+/// The parts the implicit solve holds at the start of the substep (the bending force through the
+/// frames, the core force through the filter: BendConfig::frame_gradient,
+/// CoreSpringConfig::filter_gradient) taken instead at the predicted middle of the substep,
+/// x + (h/2) u0, u0 the first solve's velocity in a.v: the change of those forces goes to the
+/// right-hand side and the same system is solved once more (the root prescribed, so its change
+/// is zero). At the middle of the step their work equals minus their energy's change to second
+/// order, so midpoint, which has no numerical damping, settles at rest; scaled by correctorTrust,
+/// since a far prediction makes the correction explode under violent motion. Overwrites a.f,
+/// a.nu, a.rhs and a.target (free until the next substep).
+template <typename S>
+void correctGradientParts(Block<S>& blk, const S& theta_h) {
+  BlockArrays<S>& a = blk.a;
+  const int n = blk.n;
+  const S lead = splat<S>(0.5 * blk.h);
+  const S trust = correctorTrust(blk, lead);
+  bool any = false;
+  for (int l = 0; l < blk.active; ++l) any = any || laneValue(trust, l) > 0.0;
+  if (!any) return;
+  for (int i = 1; i < n; ++i) a.target[i - 1] = a.v[i];           // u0
+  for (int i = 0; i < n; ++i) a.rhs[i] = a.p[i] + lead * a.v[i];  // the predicted middle
+  // The change of the held parts: theirs at the middle minus theirs at the start (a.held_force).
+  for (int i = 0; i < n; ++i) a.f[i] = splat<S>(-1.0) * a.held_force[i];
+  if (blk.plan.core_filter_gradient) {
+    smoothDifferences(a.rhs, n, blk.beta_core, a.nu);
+    for (int i = 0; i < blk.edges; ++i) a.nu[i] = coreForce(a.nu[i], a.core_rest[i], blk.core_k);
+    applyEdgeForcesThroughFilter(blk, a.nu, a.f);
+  }
+  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk, a.rhs, a.f);
+  for (int i = 1; i < n; ++i) a.rhs[i] = (trust * theta_h) * a.f[i];
+  solveBlockTridiagonal(blk);  // the change of u, into a.v[1..n-1]
+  for (int i = 1; i < n; ++i) a.v[i] = a.target[i - 1] + a.v[i];
+}
+
 /// 4-5 implicit: a theta method on the velocity u that moves the particles,
 /// x+ = x + h u, v+ = v + (u - v) / theta, with the forces linearised about the start of the
 /// substep: M (u - v) = theta h [f(x) + theta h K u + D(u)], D the damping. Per edge the coupling
@@ -532,6 +594,7 @@ void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
   for (int i = 1; i < n; ++i) a.rhs[i] = a.m[i] * a.v[i] + th * a.f[i];
   a.rhs[1] += a.block[0] * a.v[0];  // the prescribed root velocity moved to the right-hand side
   solveBlockTridiagonal(blk);
+  if (blk.plan.bend_frame_gradient || blk.plan.core_filter_gradient) correctGradientParts(blk, th);
   const S inv_theta = splat<S>(1.0 / theta);
   for (int i = 1; i < n; ++i) a.v[i] = a.v_start[i] + inv_theta * (a.v[i] - a.v_start[i]);
 }
