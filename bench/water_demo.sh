@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The water demo (README "Water that moves"): config/scenes/water_demo.yaml run by the offline
+# The water demo (docs/water.md, "The demo"): config/scenes/water_demo.yaml run by the offline
 # runner, its JSON series charted with gnuplot (held water, mean tip height, clump distance over
 # time, the shower and dryer periods shaded) and frames every 2 s rendered as a contact sheet.
 #   bench/water_demo.sh [OUT]      default OUT: docs/img (water_demo.json, _chart.png, _sheet.png)

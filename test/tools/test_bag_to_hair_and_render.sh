@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The record-and-replay tools end to end (README "Record and replay"): wet_curly_hair_bag_to_hair
+# The record-and-replay tools end to end (docs/ros.md, record and replay): wet_curly_hair_bag_to_hair
 # turns recorded Strands messages into .hair frames that hold exactly what the messages held, and
 # wet_curly_hair_render draws them into a contact sheet with strands in every tile. Input: the
 # committed test/data/replay_expected.bag (27 /wet_curly_hair/strands messages).

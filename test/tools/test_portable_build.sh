@@ -12,7 +12,7 @@
 # that the frames hold the simulated positions (cohesion "ours" only adds the display positions,
 # which the dynamics never read: the simulated ones are the same as with it on).
 # The tolerance: SolverLanes.FloatLanesStayFarBelowTheIntegratorsOwnError holds the float lanes
-# within 1 um of the double lanes on this scene without an obstacle (README "Float or double":
+# within 1 um of the double lanes on this scene without an obstacle (docs/performance.md "Float or double":
 # 0.08 um measured). Another instruction set changes only how the float operations round (which
 # multiply-adds fuse, the register width, the order of sums), so each build is within that bound
 # of the double result and the two builds within twice it: 2 um for every particle of every
