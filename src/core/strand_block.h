@@ -296,15 +296,19 @@ void elasticForces(Block<S>& blk) {
     a.f[i + 1] -= fs;
   }
   if (core_local && !blk.plan.bend_frame_gradient) return;
-  // The parts through the filter and the frames, kept apart for the implicit corrector.
-  for (int i = 0; i < blk.n; ++i) a.held_force[i] = zero3<S>();
+  // The parts through the filter and the frames: kept apart for the implicit corrector
+  // (correctGradientParts), straight into the forces for the explicit method.
+  V3<S>* parts = blk.plan.implicit ? a.held_force : a.f;
+  if (blk.plan.implicit)
+    for (int i = 0; i < blk.n; ++i) parts[i] = zero3<S>();
   if (!core_local) {
     // a.nu is free until the damping recomputes it.
     for (int i = 0; i < blk.edges; ++i) a.nu[i] = coreForce(a.b[i], a.core_rest[i], blk.core_k);
-    applyEdgeForcesThroughFilter(blk, a.nu, a.held_force);
+    applyEdgeForcesThroughFilter(blk, a.nu, parts);
   }
-  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk, a.p, a.held_force);
-  for (int i = 0; i < blk.n; ++i) a.f[i] += a.held_force[i];
+  if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk, a.p, parts);
+  if (blk.plan.implicit)
+    for (int i = 0; i < blk.n; ++i) a.f[i] += parts[i];
 }
 
 /// Forces g_i computed on the alpha_c-smoothed differences b_i (eq. 5) applied to the edges through
