@@ -64,14 +64,25 @@ struct Row {
   double rms = 0.0, max = 0.0, tip_rms = 0.0, tip_max = 0.0;  ///< fractions of strand length
   double curl_radius_m = 0.0, clump_m = 0.0;
   bool finite = true;
+  /// K > 1, the same scene with cohesion.gather_at "guides": its cost, its clump distance, and
+  /// its followers' display positions p^w against those of the gather at every particle (same
+  /// dynamics: p^w never feeds back), RMS and max in fractions of strand length; beside them the
+  /// RMS of the display offset |p^w - p| itself (gather at every particle).
+  double guides_cost = 0.0, guides_clump_m = 0.0, display_rms = 0.0, display_max = 0.0;
+  double offset_rms = 0.0;
 };
+
+/// The wet_position of the followers of every compared frame.
+typedef std::vector<Vec3List> Frames;
 
 /// Runs the scene at follow ratio k `runs` times; compares the first run's followers with
 /// `reference` (frames of the full run, groom strand order; empty: this is the reference, stored
 /// into *store).
 Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
-         std::vector<Vec3List>* store) {
-  const io::SceneConfig scene = benchScene(o, k);
+         std::vector<Vec3List>* store, const std::string& gather_at = "all",
+         Frames* display_store = nullptr, const Frames* display_reference = nullptr) {
+  io::SceneConfig scene = benchScene(o, k);
+  scene.solver.cohesion.gather_at = gather_at;
   HairModel model;
   std::string why;
   if (!io::buildSceneModel(scene, &model, &why)) {
@@ -81,12 +92,32 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   const FollowerMap& f = model.followers;
   const int first_follower = f.guide_strands > 0 ? f.guide_strands : model.strandCount();
   double sum2 = 0.0, tip_sum2 = 0.0, max = 0.0, tip_max = 0.0;
-  long count = 0, tips = 0;
+  double display_sum2 = 0.0, display_max = 0.0, offset_sum2 = 0.0;
+  long count = 0, tips = 0, display_count = 0;
+  const int follower_particle0 = model.strandBegin(first_follower);
   io::RunOptions options;
   options.measure = false;
   options.tangles = false;
   options.on_frame = [&](int frame, const HairState& state) {
     if (frame % o.compare_stride != 0) return;
+    if (display_store)
+      display_store->emplace_back(state.wet_position.begin() + follower_particle0,
+                                  state.wet_position.end());
+    for (int s = first_follower; s < model.strandCount(); ++s) {
+      const int begin = model.strandBegin(s);
+      for (int i = begin; i < begin + model.strandSize(s); ++i) {
+        const double len = model.strand_length_m[s];
+        const double off = (state.wet_position[i] - state.position[i]).norm() / len;
+        offset_sum2 += off * off;
+        if (display_reference) {
+          const Vec3& ref = (*display_reference)[frame / o.compare_stride][i - follower_particle0];
+          const double e = (state.wet_position[i] - ref).norm() / len;
+          display_sum2 += e * e;
+          display_max = std::max(display_max, e);
+        }
+        ++display_count;
+      }
+    }
     if (store) {  // the full run: groom order is model order
       store->push_back(state.position);
       return;
@@ -138,6 +169,9 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   row.max = max;
   row.tip_rms = tips ? std::sqrt(tip_sum2 / tips) : 0.0;
   row.tip_max = tip_max;
+  row.display_rms = display_count ? std::sqrt(display_sum2 / display_count) : 0.0;
+  row.display_max = display_max;
+  row.offset_rms = display_count ? std::sqrt(offset_sum2 / display_count) : 0.0;
   return row;
 }
 
@@ -218,11 +252,22 @@ int main(int argc, char** argv) {
   std::vector<Vec3List> reference;
   std::vector<Row> rows;
   rows.push_back(runK(o, 1, nullptr, &reference));
-  for (int k : o.ks)
-    if (k > 1) rows.push_back(runK(o, k, &reference, nullptr));
+  for (int k : o.ks) {
+    if (k <= 1) continue;
+    Frames display;
+    Row row = runK(o, k, &reference, nullptr, "all", &display);
+    const Row guides = runK(o, k, &reference, nullptr, "guides", nullptr, &display);
+    row.guides_cost = guides.cost;
+    row.guides_clump_m = guides.clump_m;
+    row.display_rms = guides.display_rms;
+    row.display_max = guides.display_max;
+    rows.push_back(row);
+  }
   std::ofstream csv(o.out + "/" + o.name + ".csv");
   csv << "strands,K,guides,cost_s_per_s,followers_cpu_s_per_s,rms_pct,max_pct,tip_rms_pct,"
-         "tip_max_pct,curl_radius_tip_mm,clump_distance_mm,finite\n";
+         "tip_max_pct,curl_radius_tip_mm,clump_distance_mm,finite,guides_cost_s_per_s,"
+         "guides_clump_distance_mm,display_offset_rms_pct,guides_display_rms_pct,"
+         "guides_display_max_pct\n";
   std::printf(
       "| K | guides | cost, s/s | of it followers, s/s | RMS %% | max %% | tip RMS %% | tip max %% "
       "| curl radius, mm | clump distance, mm |\n|---|---|---|---|---|---|---|---|---|---|\n");
@@ -230,10 +275,22 @@ int main(int argc, char** argv) {
     csv << o.strands << "," << r.k << "," << r.guides << "," << r.cost << "," << r.follower_cost
         << "," << 100 * r.rms << "," << 100 * r.max << "," << 100 * r.tip_rms << ","
         << 100 * r.tip_max << "," << 1e3 * r.curl_radius_m << "," << 1e3 * r.clump_m << ","
-        << (r.finite ? 1 : 0) << "\n";
+        << (r.finite ? 1 : 0) << "," << r.guides_cost << "," << 1e3 * r.guides_clump_m << ","
+        << 100 * r.offset_rms << "," << 100 * r.display_rms << "," << 100 * r.display_max << "\n";
     std::printf("| %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f |\n", r.k,
                 r.guides, r.cost, r.follower_cost, 100 * r.rms, 100 * r.max, 100 * r.tip_rms,
                 100 * r.tip_max, 1e3 * r.curl_radius_m, 1e3 * r.clump_m);
+  }
+  std::printf(
+      "\nThe cohesion display with the sums at the guides only (cohesion.gather_at guides) against"
+      " the sums at every particle (same dynamics), followers' p^w:\n\n| K | cost, s/s, all |"
+      " cost, s/s, guides | ratio | display offset RMS %% | p^w difference RMS %% | max %% |"
+      " clump distance, mm, all | guides |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows) {
+    if (r.k <= 1) continue;
+    std::printf("| %d | %.3g | %.3g | %.2f | %.3g | %.3g | %.3g | %.2f | %.2f |\n", r.k, r.cost,
+                r.guides_cost, r.guides_cost / r.cost, 100 * r.offset_rms, 100 * r.display_rms,
+                100 * r.display_max, 1e3 * r.clump_m, 1e3 * r.guides_clump_m);
   }
   csv.close();
   plot(o.out, o.name,

@@ -5,6 +5,7 @@
 
 #include "parallel.h"
 #include "wet_curly_hair/core/cohesion_grid.h"
+#include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
@@ -181,33 +182,42 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
   const double* __restrict sv = grid.sorted_volume.data();
   const double* __restrict ss = grid.sorted_saturation.data();
   const double* __restrict sstrand = grid.sorted_strand_value.data();
+  // With gather_at "guides" the sums run over the guide particles only, wet or dry (the
+  // densities stay exact at every particle: this is the reference).
+  const int guide_strands = model.followers.guide_strands;
+  const bool at_guides = c.gather_at == "guides" && guide_strands > 0;
+  const int gathered =
+      at_guides ? static_cast<int>(model.strandBegin(guide_strands)) : model.particleCount();
   // Each particle writes only its own p^w: the result is the same for any thread count.
-  const int clumped =
-      static_cast<int>(parallelSum(threads, 256, int(model.particleCount()), [&](int i) -> int {
-        if (state->saturation[i] <= 0.0) return 0;  // dry particles keep p^w = p
-        const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
-        const double own = grid.strand_of[i];
-        // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
-        double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
-        forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
-          const CohesionSums run =
-              cohesionRun(sx, sy, sz, sv, ss, sstrand, lo, hi, xi, yi, zi, h2, own);
-          weight_sum += run.weight;
-          px += run.x;
-          py += run.y;
-          pz += run.z;
-        });
-        const Vec3 pull(px, py, pz);
-        // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
-        // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
-        // crosses the kernel support: measured as jitter under rotation (docs/physics.md §1.3).
-        if (c.include_self && weight_sum > 0.0)
-          weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
-        if (weight_sum <= 0.0) return 0;  // isolated: p^w = p (A13)
-        state->wet_position[i] = p[i] + (c.tightness / weight_sum) * pull;
-        return 1;
-      }));
-  return clumped;
+  const int clumped = static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
+    const bool wet = state->saturation[i] > 0.0;
+    if (!wet && !at_guides) return 0;  // dry particles keep p^w = p
+    const double xi = p[i].x(), yi = p[i].y(), zi = p[i].z();
+    const double own = grid.strand_of[i];
+    // Sums over other strands' particles within h of w = V_j W_ij and of w sigma_j (p_j - p_i).
+    double weight_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
+    forEachCellRun(grid, p[i], h, [&](uint32_t lo, uint32_t hi) {
+      const CohesionSums run =
+          cohesionRun(sx, sy, sz, sv, ss, sstrand, lo, hi, xi, yi, zi, h2, own);
+      weight_sum += run.weight;
+      px += run.x;
+      py += run.y;
+      pz += run.z;
+    });
+    const Vec3 pull(px, py, pz);
+    // A13: the particle itself may join the Shepard sum (it pulls nowhere). Without it a single
+    // distant neighbour gets the whole weight, so p^w jumps by up to lambda h as a neighbour
+    // crosses the kernel support: measured as jitter under rotation (docs/physics.md §1.3).
+    if (c.include_self && weight_sum > 0.0)
+      weight_sum += model.mass_kg[i] / state->density[i] * poly6Shape(0.0, h2);
+    const Vec3 offset =
+        weight_sum > 0.0 ? clumpOffset(pull, weight_sum, c.tightness) : Vec3(Vec3::Zero());
+    if (at_guides) state->guide_clump_offset[i] = offset;
+    if (weight_sum <= 0.0 || !wet) return 0;  // isolated: p^w = p (A13)
+    state->wet_position[i] = p[i] + offset;
+    return 1;
+  }));
+  return at_guides ? clumped + displayFollowersFromGuides(model, state, threads) : clumped;
 }
 
 int computeCohesionForces(const HairModel& model, const CohesionConfig& c, HairState* state) {

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "parallel.h"
+#include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
@@ -531,6 +532,12 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const int n = model.particleCount();
   const double h = cfg.radius_m, h2 = h * h;
   const bool single = cfg.grid_single_precision;
+  // With gather_at "guides" the sums of eq. (10) run over the guide particles only (wet or dry:
+  // wet followers interpolate their clump targets); every particle is still splatted.
+  const int guide_strands = model.followers.guide_strands;
+  const bool at_guides = cfg.gather_at == "guides" && guide_strands > 0;
+  const int gathered = at_guides ? static_cast<int>(model.strandBegin(guide_strands)) : n;
+  const int gathered_strands = at_guides ? guide_strands : model.strandCount();
   // Every particle's position on the lattice, cell and trilinear fractions, once: the splats
   // and the own-strand shares use them.
   parallelFor(threads, Schedule::kStatic, 0, int(n), [&](int j) {
@@ -561,13 +568,15 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   });
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
-  parallelFor(threads, Schedule::kDynamic, 256, int(n), [&](int i) {
+  parallelFor(threads, Schedule::kDynamic, 256, gathered, [&](int i) {
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     const double rho = single ? gatherScalarSingle<kCells>(L, g.scalar_f.data(), ri, h2)
                               : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
     state->density[i] = norm * rho;
-    g.volume[i] = model.mass_kg[i] / state->density[i];
   });
+  if (at_guides) interpolateFollowerDensity(model, state, threads);
+  parallelFor(threads, Schedule::kStatic, 0, int(n),
+              [&](int i) { g.volume[i] = model.mass_kg[i] / state->density[i]; });
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
@@ -600,9 +609,9 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   }
   // The own strands' shares in float, a strand at a time (strands with a wet particle only).
   if (single) {
-    parallelFor(threads, Schedule::kDynamic, 16, int(model.strandCount()), [&](int s) {
+    parallelFor(threads, Schedule::kDynamic, 16, gathered_strands, [&](int s) {
       const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
-      bool wet_strand = false;
+      bool wet_strand = at_guides;
       for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
       if (wet_strand) ownStrandSharesSingle(L, &g, begin, end);
     });
@@ -610,8 +619,9 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const double c6 = L.c * L.c * L.c * L.c * L.c * L.c;  // the float shares' lattice units
   const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
                               g.qy_f.data(), g.qz_f.data()};
-  const int clumped = static_cast<int>(parallelSum(threads, 256, int(n), [&](int i) -> int {
-    if (state->saturation[i] <= 0.0) return 0;  // dry particles keep p^w = p
+  const int clumped = static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
+    const bool wet_particle = state->saturation[i] > 0.0;
+    if (!wet_particle && !at_guides) return 0;  // dry particles keep p^w = p
     // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     WetSums all =
@@ -634,13 +644,19 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     }
     double weight_sum = all.weight - own.weight;
     // Round-off of the cancellation: no other strand within reach.
-    if (!(weight_sum > 1e-9 * own.weight)) return 0;
+    if (!(weight_sum > 1e-9 * own.weight)) {
+      if (at_guides) state->guide_clump_offset[i] = Vec3::Zero();
+      return 0;
+    }
     const Vec3 pull = all.pull - own.pull;
     if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
-    state->wet_position[i] = p[i] + (cfg.tightness / weight_sum) * pull;
+    const Vec3 offset = clumpOffset(pull, weight_sum, cfg.tightness);
+    if (at_guides) state->guide_clump_offset[i] = offset;
+    if (!wet_particle) return 0;
+    state->wet_position[i] = p[i] + offset;
     return 1;
   }));
-  return clumped;
+  return at_guides ? clumped + displayFollowersFromGuides(model, state, threads) : clumped;
 }
 
 }  // namespace

@@ -147,7 +147,8 @@ bool CohesionConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "lin_stiffness_n_per_m3", lin_stiffness_n_per_m3, 0.0, 1e9, why) &&
          finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why) &&
          oneOf(p + "evaluation", evaluation, {"exact", "grid"}, why) &&
-         finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why);
+         finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why) &&
+         oneOf(p + "gather_at", gather_at, {"all", "guides"}, why);
 }
 
 bool AdhesionConfig::validate(const std::string& p, std::string* why) const {

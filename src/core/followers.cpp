@@ -278,6 +278,41 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
 
 }  // namespace
 
+void interpolateFollowerDensity(const HairModel& model, HairState* state, int threads) {
+  const FollowerMap& f = model.followers;
+  if (f.guide_strands <= 0) return;
+  const int followers = model.strandCount() - f.guide_strands;
+  double* density = state->density.data();
+  detail::parallelFor(threads, detail::Schedule::kStatic, 0, followers, [&](int k) {
+    const int s = f.guide_strands + k, begin = model.strandBegin(s);
+    for (int i = begin; i < begin + model.strandSize(s); ++i) {
+      double rho = 0.0;
+      forEachGuideSample(model, s, i, [&](uint32_t a, double w) { rho += w * density[a]; });
+      density[i] = rho;
+    }
+  });
+}
+
+int displayFollowersFromGuides(const HairModel& model, HairState* state, int threads) {
+  const FollowerMap& f = model.followers;
+  if (f.guide_strands <= 0) return 0;
+  const int followers = model.strandCount() - f.guide_strands;
+  const Vec3* offset = state->guide_clump_offset.data();
+  return static_cast<int>(detail::parallelSum(threads, 16, followers, [&](int k) -> int {
+    const int s = f.guide_strands + k, begin = model.strandBegin(s);
+    int moved = 0;
+    for (int i = begin; i < begin + model.strandSize(s); ++i) {
+      if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
+      Vec3 d = Vec3::Zero();
+      forEachGuideSample(model, s, i, [&](uint32_t a, double w) { d += w * offset[a]; });
+      if (d == Vec3::Zero()) continue;  // every guide sample isolated: p^w = p (A13)
+      state->wet_position[i] = state->position[i] + d;
+      ++moved;
+    }
+    return moved;
+  }));
+}
+
 void updateFollowers(const HairModel& model, const SolverConfig& config, const Pose& pose,
                      const Obstacles* obstacles, double dt_s, int threads, HairState* state) {
   const FollowerMap& f = model.followers;

@@ -277,6 +277,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
     "grid evaluation: lattice nodes per kernel radius", true);
   b("solver.cohesion.grid_single_precision", &c.cohesion.grid_single_precision,
     "grid evaluation: gathers in float, double where the cancellation needs it", false);
+  str("solver.cohesion.gather_at", &c.cohesion.gather_at,
+      "with followers: eq. 10's sums at all particles, or at the guides (followers interpolate)",
+      false);
   b("solver.adhesion.enabled", &c.adhesion.enabled, "adhesion of wet hair to obstacles", false);
   d("solver.adhesion.peak_acceleration_m_s2", &c.adhesion.peak_acceleration_m_s2,
     "peak adhesion acceleration at saturation 1, m/s^2", false);

@@ -300,6 +300,10 @@ TEST(CohesionGrid, FallsBackToExactWhenTheLatticeIsTooSmall) {
   c.grid_cells_per_radius = 0;
   EXPECT_FALSE(c.validate("solver.cohesion.", &why));
   EXPECT_NE(why.find("solver.cohesion.grid_cells_per_radius"), std::string::npos) << why;
+  c.grid_cells_per_radius = 3;
+  c.gather_at = "followers";
+  EXPECT_FALSE(c.validate("solver.cohesion.", &why));
+  EXPECT_NE(why.find("solver.cohesion.gather_at"), std::string::npos) << why;
 }
 
 TEST(Cohesion, BaselineForcesPullWetStrandsTogetherAndConserveMomentum) {

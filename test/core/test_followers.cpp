@@ -1,6 +1,8 @@
 // Guides and followers (followers.h): follow ratio 1 is the full simulation, guides evolve as in
 // the full simulation, a follower on a guide copies it, rigid hair stays rigid, followers end
-// outside the head and the obstacles, weights are the modified Shepard weights and sum to 1.
+// outside the head and the obstacles, weights are the modified Shepard weights and sum to 1; with
+// the cohesion sums at the guides, a follower on a guide takes its display and the guides'
+// display is unchanged.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -227,6 +229,67 @@ TEST(Followers, AFollowerOnAGuidesRootWithItsShapeCopiesIt) {
     moved = std::max(moved, (m.rest_position_head[m.strandBegin(original) + i] - y).norm());
   }
   EXPECT_GT(moved, 1e-3) << "the guide did not move: the test proves nothing";
+}
+
+TEST(Followers, WithTheSumsAtTheGuidesAFollowerOnAGuideTakesItsDisplay) {
+  // cohesion.gather_at "guides": strand 1 is strand 0 again (as above), so the offsets it
+  // interpolates are 0's alone, at 0's particles: its p^w must be 0's, which moved (clumped).
+  // Evaluated exactly and on the lattice.
+  const Groom g = curlyGroom(6);
+  Groom twin;
+  for (int src : {0, 0, 1, 2, 3, 4, 5}) {
+    twin.points.insert(twin.points.end(), g.points.begin() + g.strand_offsets[src],
+                       g.points.begin() + g.strand_offsets[src + 1]);
+    twin.strand_offsets.push_back(static_cast<uint32_t>(twin.points.size()));
+    twin.root_normals.push_back(g.root_normals[src]);
+  }
+  for (const std::string evaluation : {"exact", "grid"}) {
+    SolverConfig c;
+    c.cohesion.gather_at = "guides";
+    c.cohesion.evaluation = evaluation;
+    const HairModel m = followerModel(twin, 2, c);
+    int copy = -1, original = -1;
+    for (int s = 0; s < m.strandCount(); ++s) {
+      if (m.followers.source_strand[s] == 0) original = s;
+      if (m.followers.source_strand[s] == 1) copy = s;
+    }
+    ASSERT_GE(copy, m.followers.guide_strands);
+    const HairState s = wetNodRun(m, c, 40);
+    double clumped = 0.0;
+    for (int i = 0; i < m.strandSize(copy); ++i) {
+      const int a = m.strandBegin(copy) + i, b = m.strandBegin(original) + i;
+      EXPECT_LT((s.wet_position[a] - s.wet_position[b]).norm(), 1e-12) << evaluation << " " << i;
+      clumped = std::max(clumped, (s.wet_position[b] - s.position[b]).norm());
+    }
+    EXPECT_GT(clumped, 1e-4) << evaluation << ": no display offset, the test proves nothing";
+  }
+}
+
+TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
+  // Exact evaluation keeps every particle's density exact, so the guides' sums, and their p^w,
+  // are those of the sums at every particle to the bit; the followers' differ (interpolated)
+  // but stay within the kernel's reach, lambda h, of their positions.
+  SolverConfig all;
+  all.cohesion.evaluation = "exact";
+  SolverConfig guides = all;
+  guides.cohesion.gather_at = "guides";
+  const HairModel m = followerModel(curlyGroom(60), 4, all);
+  const HairState a = wetNodRun(m, all, 20), b = wetNodRun(m, guides, 20);
+  const int first_follower = m.strandBegin(m.followers.guide_strands);
+  int moved = 0, differ = 0;
+  for (int i = 0; i < m.particleCount(); ++i) {
+    ASSERT_EQ(a.position[i], b.position[i]) << i;  // p^w never feeds back
+    if (i < first_follower) {
+      ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << i;
+      moved += a.wet_position[i] != a.position[i];
+    } else {
+      const double offset = (b.wet_position[i] - b.position[i]).norm();
+      ASSERT_LE(offset, all.cohesion.tightness * all.cohesion.radius_m) << i;
+      differ += a.wet_position[i] != b.wet_position[i];
+    }
+  }
+  EXPECT_GT(moved, 0) << "no guide clumped: the test proves nothing";
+  EXPECT_GT(differ, 0) << "the followers' p^w was not interpolated";
 }
 
 TEST(Followers, RigidHairStaysRigidWithTheHead) {

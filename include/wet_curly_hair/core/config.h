@@ -198,6 +198,11 @@ struct CohesionConfig {
   /// own-strand cancellation, have both sums redone in double. Chosen by measurement
   /// (docs/physics.md §7.3).
   bool grid_single_precision = true;
+  /// Where eq. (10)'s sums are evaluated when the groom has followers (followers.h): "all"
+  /// output particles, or the "guides" only, each follower then taking its guides' clump targets
+  /// interpolated as its position is (docs/followers.md). Every particle's volume still enters
+  /// the sums, so clumps are as dense as the groom either way.
+  std::string gather_at = "all";
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

@@ -47,6 +47,39 @@ bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int 
 void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
                      Vec3* out);
 
+/// Calls fn(a, w) for the guide particles a that follower particle i (global index, of follower
+/// strand s) is interpolated from, with their weights w (summing to 1): each guide's weight
+/// shared linearly between the two particles around the follower's normalized arc length, as
+/// updateFollowers places it.
+template <typename Fn>
+void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
+  const FollowerMap& f = model.followers;
+  const size_t k = static_cast<size_t>(s - f.guide_strands) * kFollowerGuides;
+  const size_t e0 = static_cast<size_t>(i - static_cast<int>(model.strandBegin(f.guide_strands))) *
+                    kFollowerGuides;
+  for (int g = 0; g < kFollowerGuides; ++g) {
+    const double w = f.weight[k + g];
+    if (w == 0.0) continue;
+    const uint32_t a = f.sample_index[e0 + g];
+    const double t = f.sample_fraction[e0 + g];
+    fn(a, w * (1.0 - t));
+    if (t != 0.0) fn(a + 1, w * t);
+  }
+}
+
+/// cohesion.gather_at "guides", before the sums of eq. (10): each follower particle's density
+/// (state->density) interpolated from its guides' (forEachGuideSample), which the caller has
+/// computed. No-op without followers.
+void interpolateFollowerDensity(const HairModel& model, HairState* state, int threads);
+
+/// cohesion.gather_at "guides", after the guides' display offsets (state->guide_clump_offset,
+/// wet or dry guide particles alike): every wet follower particle's p^w = p plus the offsets
+/// interpolated at it (forEachGuideSample). The offset of eq. (10) is a Shepard average over the
+/// kernel support h of the neighbours' (p_j - p): it varies over h, and guides closer than h
+/// sample it (docs/followers.md). Returns the wet follower particles moved. No-op without
+/// followers.
+int displayFollowersFromGuides(const HairModel& model, HairState* state, int threads);
+
 /// Places every follower after a step, in the head frame (head_pose): the weighted sum over its
 /// guides of the guide's point at the follower particle's normalized arc length plus the
 /// follower's offset from that point on the exaggerated rest shapes, turned by the rotation of

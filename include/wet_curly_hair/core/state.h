@@ -176,6 +176,9 @@ struct HairState {
   /// exaggerated rest position (m), and the rotation of its edge's smoothed frame from rest.
   Vec3List guide_position_head, guide_rest_head;
   Mat3List guide_rotation;
+  /// Per guide particle, cohesion.gather_at "guides": its display offset p^w - p of eq. (10),
+  /// m, world frame, wet or dry (0 isolated): followers take theirs interpolated from these.
+  Vec3List guide_clump_offset;
   NeighborGrid grid;
   CohesionNodeGrid cohesion_grid;
   HairContactState hair_contact;

@@ -85,6 +85,13 @@ WCH_INLINE double poly6Shape(double r2, double h2) {
   return x * x * x;
 }
 
+/// Eq. (10): the display offset p^w - p = lambda pull / W of a particle from its Shepard sums,
+/// pull = sum_j w_j (p_j - p) over the other strands' particles and W = sum_j w_j (plus the
+/// particle's own weight with include_self, A13).
+WCH_INLINE Vec3 clumpOffset(const Vec3& pull, double weight, double tightness) {
+  return (tightness / weight) * pull;
+}
+
 /// Akinci et al. 2013 cohesion kernel C(r) (docs/physics.md §7.2), support h.
 WCH_INLINE double akinciCohesionKernel(double r, double h) {
   if (!(r > 0.0) || r > h) return 0.0;
