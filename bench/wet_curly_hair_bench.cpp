@@ -815,6 +815,7 @@ int benchTargetAndLanes(const Options& opt, bool* all_ok) {
     const char* evaluation;
     int cells;
     bool single;
+    double refresh_period_s = 0.0;  ///< cohesion.refresh_period_s: offsets held between
   };
   const std::vector<Display> displays =
       opt.quick ? std::vector<Display>{{"exact", "exact", 4, true}, {"grid4", "grid", 4, true}}
@@ -822,7 +823,9 @@ int benchTargetAndLanes(const Options& opt, bool* all_ok) {
                                        {"grid4", "grid", 4, true},
                                        {"grid3", "grid", 3, true},
                                        {"grid2", "grid", 2, true},
-                                       {"grid4_double", "grid", 4, false}};
+                                       {"grid4_double", "grid", 4, false},
+                                       {"grid3_every_2nd_frame", "grid", 3, true, 1.0 / 30},
+                                       {"grid3_every_4th_frame", "grid", 3, true, 1.0 / 15}};
   double smallest = candidates.front().substep_s;
   for (const Setting& c : candidates) smallest = std::min(smallest, c.substep_s);
   BenchScene target = benchScenes()[4];
@@ -903,6 +906,7 @@ int benchTargetAndLanes(const Options& opt, bool* all_ok) {
       with.overrides.push_back({"solver.cohesion.grid_cells_per_radius", std::to_string(d.cells)});
       with.overrides.push_back(
           {"solver.cohesion.grid_single_precision", d.single ? "true" : "false"});
+      with.overrides.push_back({"solver.cohesion.refresh_period_s", fmt(d.refresh_period_s)});
       io::SceneConfig sc;
       if (!makeScene(with, strands, seconds, &sc, &why) || !measure(sc, setting, d.label, true)) {
         std::fprintf(stderr, "wet_curly_hair_bench: target: %s\n", why.c_str());

@@ -220,6 +220,30 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
   return at_guides ? clumped + displayFollowersFromGuides(model, state, threads) : clumped;
 }
 
+int updateDisplayCohesion(const HairModel& model, const CohesionConfig& c, double time_s,
+                          HairState* state, int threads) {
+  const double period = c.refresh_period_s;
+  // Round-off of the frame times must not skip an evaluation that is due.
+  const double since = time_s - state->display_evaluated_s;
+  const bool hold = period > 0.0 && since >= 0.0 && since < period * (1.0 - 1e-9);
+  if (!hold) {
+    const int clumped = computeDisplayCohesion(model, c, state, threads);
+    if (period > 0.0) {
+      const Vec3List& p = state->position;
+      parallelFor(threads, Schedule::kStatic, 0, model.particleCount(),
+                  [&](int i) { state->display_offset[i] = state->wet_position[i] - p[i]; });
+      state->display_evaluated_s = time_s;
+    }
+    return clumped;
+  }
+  const Vec3List& p = state->position;
+  return static_cast<int>(parallelSum(threads, 256, model.particleCount(), [&](int i) -> int {
+    const bool moved = state->saturation[i] > 0.0 && state->display_offset[i] != Vec3::Zero();
+    state->wet_position[i] = moved ? Vec3(p[i] + state->display_offset[i]) : p[i];
+    return moved ? 1 : 0;
+  }));
+}
+
 int computeCohesionForces(const HairModel& model, const CohesionConfig& c, HairState* state) {
   Vec3List& f = state->external_force;
   std::fill(f.begin(), f.end(), Vec3::Zero());

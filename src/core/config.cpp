@@ -148,7 +148,8 @@ bool CohesionConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "kim_surface_tension", kim_surface_tension, 0.0, 1e3, why) &&
          oneOf(p + "evaluation", evaluation, {"exact", "grid"}, why) &&
          finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why) &&
-         oneOf(p + "gather_at", gather_at, {"all", "guides"}, why);
+         oneOf(p + "gather_at", gather_at, {"all", "guides"}, why) &&
+         finiteInRange(p + "refresh_period_s", refresh_period_s, 0.0, 1.0, why);
 }
 
 bool AdhesionConfig::validate(const std::string& p, std::string* why) const {

@@ -447,7 +447,8 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
     lap = lapStage(in, kStageFollowers, lap, &local);
   }
   // Stable cohesion (eq. 10): display positions after the step, never fed back (A14).
-  local.cohesion_particles = computeDisplayCohesion(model, config.cohesion, state, threads);
+  local.cohesion_particles =
+      updateDisplayCohesion(model, config.cohesion, state->time_s + dt_s, state, threads);
   local.stage_particles[kStageCohesion] += local.cohesion_particles;
   lap = lapStage(in, kStageCohesion, lap, &local);
   if (in.clock) local.wall_s = lap - wall_start;

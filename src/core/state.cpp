@@ -73,6 +73,8 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
     state->velocity[i] = head_twist.velocityAt(state->position[i], head_pose.translation);
   }
   state->wet_position = state->position;
+  std::fill(state->display_offset.begin(), state->display_offset.end(), Vec3::Zero());
+  state->display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
   for (int s = 0; s < model.strandCount(); ++s) {
     const int begin = model.strandBegin(s);
     const Vec3 axis = state->position[begin + model.strandSize(s) - 1] - state->position[begin];
@@ -96,6 +98,7 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.water_kg.assign(n, 0.0);
   state.water_scratch.resize(n, model.max_strand_size);
   state.wet_position.assign(n, Vec3::Zero());
+  state.display_offset.assign(n, Vec3::Zero());
   state.curl_rotation.assign(model.strandCount(), Mat3::Identity());
   state.external_force.assign(n, Vec3::Zero());
   state.density.assign(n, 0.0);

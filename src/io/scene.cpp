@@ -280,6 +280,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   str("solver.cohesion.gather_at", &c.cohesion.gather_at,
       "with followers: eq. 10's sums at all particles, or at the guides (followers interpolate)",
       false);
+  d("solver.cohesion.refresh_period_s", &c.cohesion.refresh_period_s,
+    "display offsets evaluated at most this often and held between, s; 0: every step", false);
   b("solver.adhesion.enabled", &c.adhesion.enabled, "adhesion of wet hair to obstacles", false);
   d("solver.adhesion.peak_acceleration_m_s2", &c.adhesion.peak_acceleration_m_s2,
     "peak adhesion acceleration at saturation 1, m/s^2", false);

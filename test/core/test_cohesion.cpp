@@ -83,6 +83,43 @@ TEST(Cohesion, SelfWeightMakesThePullGrowSmoothlyWithDistance) {
   }
 }
 
+TEST(Cohesion, HeldOffsetsRideOnThePositionsUntilTheNextRefresh) {
+  // Refresh every 2 frames: the frame between evaluations holds the offsets of the last one.
+  // Analytic: both strands 0 and 1 pulled by lambda * gap toward each other (no self weight).
+  const double frame = 1.0 / 60.0, gap = 0.005;
+  Fixture f(gap);
+  std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
+  CohesionConfig c;
+  c.evaluation = "exact";
+  c.include_self = false;
+  c.refresh_period_s = 2.0 * frame;
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, frame, &f.state), 20);  // the first call evaluates
+  // Strand 1 moves 3 mm farther: a fresh evaluation would pull by lambda * 8 mm, the held offset
+  // stays lambda * 5 mm, carried by the new positions; and strand 0 dries (p^w = p at once).
+  for (int i = 10; i < 20; ++i) f.state.position[i].x() += 0.003;
+  for (int i = 0; i < 10; ++i) f.state.saturation[i] = 0.0;
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 2.0 * frame, &f.state), 10);
+  for (int i = 0; i < 10; ++i) {
+    EXPECT_EQ(f.state.wet_position[i], f.state.position[i]) << "dried";
+    EXPECT_NEAR(f.state.wet_position[10 + i].x(), gap + 0.003 - 0.85 * gap, 1e-12);
+  }
+  // Two frames after the evaluation the offsets are due again (whatever the frame times' round
+  // off): strand 1 alone is wet, its only neighbour dry (weighed, pulling nowhere): p^w = p.
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 3.0 * frame, &f.state), 10);
+  for (int i = 0; i < f.model.particleCount(); ++i)
+    EXPECT_EQ(f.state.wet_position[i], f.state.position[i]) << i;
+  // Period 0 evaluates at every call, and a reset forgets the held offsets.
+  for (int i = 0; i < 10; ++i) f.state.saturation[i] = 1.0;
+  c.refresh_period_s = 0.0;
+  HairState every = f.state;
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 3.0 * frame, &every), 20);
+  c.refresh_period_s = 10.0;
+  resetState(f.model, Pose(), Twist(), &f.state);
+  for (int i = 10; i < 20; ++i) f.state.position[i].x() += 0.003;
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 0.0, &f.state), 20);
+  EXPECT_NEAR(f.state.wet_position[0].x(), 0.85 * (gap + 0.003), 1e-12);
+}
+
 TEST(Cohesion, IsTranslationInvariant) {
   Fixture a(0.007), b(0.007);
   const Vec3 shift(12.3, -4.5, 6.7);
@@ -304,6 +341,10 @@ TEST(CohesionGrid, FallsBackToExactWhenTheLatticeIsTooSmall) {
   c.gather_at = "followers";
   EXPECT_FALSE(c.validate("solver.cohesion.", &why));
   EXPECT_NE(why.find("solver.cohesion.gather_at"), std::string::npos) << why;
+  c.gather_at = "all";
+  c.refresh_period_s = -0.1;
+  EXPECT_FALSE(c.validate("solver.cohesion.", &why));
+  EXPECT_NE(why.find("solver.cohesion.refresh_period_s"), std::string::npos) << why;
 }
 
 TEST(Cohesion, BaselineForcesPullWetStrandsTogetherAndConserveMomentum) {

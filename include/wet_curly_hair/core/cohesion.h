@@ -38,6 +38,14 @@ void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positi
 int computeDisplayCohesion(const HairModel& model, const CohesionConfig& config, HairState* state,
                            int threads = 1);
 
+/// computeDisplayCohesion at most every config.refresh_period_s of simulated time: `time_s` is
+/// the positions' time. Between evaluations each wet particle's p^w is its position plus the
+/// offset p^w - p of the last evaluation (dry ones keep p^w = p); the first call after
+/// makeState or resetState, a time before the last evaluation's, or period 0 evaluates.
+/// Returns the wet particles displaced (clumped).
+int updateDisplayCohesion(const HairModel& model, const CohesionConfig& config, double time_s,
+                          HairState* state, int threads = 1);
+
 /// Force-based baselines into state->external_force (N), zero for dry particles:
 /// "lin" (reconstruction of Lin 2015): a spring between particles of different strands within
 ///   h, k min(sigma_i, sigma_j) (|x_ij| - h/4) toward each other;

@@ -203,6 +203,10 @@ struct CohesionConfig {
   /// interpolated as its position is (docs/followers.md). Every particle's volume still enters
   /// the sums, so clumps are as dense as the groom either way.
   std::string gather_at = "all";
+  /// Mode "ours": the display offsets p^w - p are evaluated at most this often, s, and held
+  /// (applied to the current positions, of wet particles) between evaluations; 0: every step.
+  /// Never fed back, so only the display lags (docs/physics.md §7.3: error and cost).
+  double refresh_period_s = 0.0;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 

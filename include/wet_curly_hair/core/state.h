@@ -166,6 +166,10 @@ struct HairState {
   /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
   /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
   Vec3List wet_position;
+  /// cohesion.refresh_period_s > 0: the display offsets p^w - p of the last evaluation, and its
+  /// simulated time (NaN: none since the state was made or reset).
+  Vec3List display_offset;
+  double display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
   Vec3List last_good_position;  ///< per particle, at the end of the last healthy step.
   Vec3List last_good_velocity;
   Mat3List curl_rotation;       ///< per strand: the last well-defined M of eq. (7) (A8).
