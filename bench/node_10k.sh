@@ -3,7 +3,7 @@
 # build and publish at 60 Hz on wall-clock time, and whether the node keeps up.
 #
 #   bench/node_10k.sh [--seconds T] [--strands N] [--follow-ratio K] [--cohesion ours|off]
-#                     [--gather-at all|guides] [--obstacle SPEC] [--out DIR]
+#                     [--gather-at all|guides] [--refresh S] [--obstacle SPEC] [--out DIR]
 #
 # Starts a private roscore, head_motion_publisher (the built-in nod, 120 Hz) and the node on the
 # built-in scene (wet toward the tips) with N output strands of which N / K are guides, a sphere
@@ -13,10 +13,12 @@
 # per wall second, the node's per-frame solver step, conversion (state -> messages) and publish
 # times (means over the status messages of the window), skipped frames in the window, solver and
 # achieved real-time factors. Defaults: T = 20, N = 10000, K = 10, cohesion ours, the cohesion
-# sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at).
+# sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at), the
+# display offsets evaluated every frame (--refresh S: at most every S s, solver.cohesion.
+# refresh_period_s).
 set -eu
 source "$(dirname "${BASH_SOURCE[0]}")/../scripts/setup_common.sh"
-seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all out=node_10k_out
+seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 out=node_10k_out
 obstacle="sphere:x=-0.16,y=0.0,z=-0.05,r=0.05"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -25,6 +27,7 @@ while [ $# -gt 0 ]; do
     --follow-ratio) ratio=$2; shift 2 ;;
     --cohesion) cohesion=$2; shift 2 ;;
     --gather-at) gather_at=$2; shift 2 ;;
+    --refresh) refresh=$2; shift 2 ;;
     --obstacle) obstacle=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     *) echo "node_10k.sh: unknown option $1" >&2; exit 2 ;;
@@ -57,13 +60,15 @@ pids+=($!)
 "$(wch_bin wet_curly_hair_node)" __name:=wet_curly_hair _publish_rate:=60 \
   _groom/strands:="$strands" _groom/follow_ratio:="$ratio" \
   _solver/cohesion/mode:="$cohesion" _solver/cohesion/gather_at:="$gather_at" \
+  _solver/cohesion/refresh_period_s:="$refresh" \
   > "$out/node.log" 2>&1 &
 pids+=($!)
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" <<'PY'
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" <<'PY'
 import json, sys, time
 import rospy
 from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
+refresh = float(sys.argv[7])
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -95,6 +100,7 @@ mean = lambda xs: sum(xs) / len(xs)
 first, last = window["status"][0], window["status"][-1]
 r = {
     "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
+    "refresh_period_s": refresh,
     "particles": last.particles, "publish_rate_hz": 1.0 / last.frame_s,
     "window_wall_s": wall,
     "message_bytes": max(window["bytes"]),
