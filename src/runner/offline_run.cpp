@@ -111,6 +111,9 @@ std::string RunSummary::toJson() const {
       .add("integrator", integrator)
       .add("lane_layout", lane_layout)
       .add("threads", threads)
+      .add("cohesion", cohesion)
+      .add("cohesion_gather_at", cohesion_gather_at)
+      .add("cohesion_refresh_period_s", cohesion_refresh_period_s)
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
@@ -241,6 +244,12 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
                       ? std::string(scene.solver.integrator.resolvedLaneLayout())
                       : std::string("off");
   s.threads = scene.solver.integrator.resolvedThreads();
+  const CohesionConfig& c = scene.solver.cohesion;
+  s.cohesion = c.mode != "ours"         ? c.mode
+               : c.evaluation == "grid" ? "grid" + std::to_string(c.grid_cells_per_radius)
+                                        : c.evaluation;
+  s.cohesion_gather_at = c.gather_at;
+  s.cohesion_refresh_period_s = c.refresh_period_s;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);
   return s;

@@ -201,6 +201,12 @@ struct RunSummary {
   /// solver.integrator.lane_layout, or "off" when strands run one at a time (strand_lanes).
   std::string lane_layout;
   int threads = 1;  ///< solver.integrator.threads
+  /// The cohesion display pass that ran: "off", "exact" or "grid<nodes per radius>" (mode
+  /// "ours"; the baselines' mode otherwise), where its sums ran (solver.cohesion.gather_at) and
+  /// how often its offsets were refreshed (refresh_period_s; 0: every step).
+  std::string cohesion;
+  std::string cohesion_gather_at;
+  double cohesion_refresh_period_s = 0.0;
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
   /// seconds (all threads).
   std::vector<uint64_t> stage_particles;
