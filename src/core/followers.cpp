@@ -270,9 +270,7 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
     }
     Vec3& p = state->position[begin + i];
     state->velocity[begin + i] = dt_s > 0.0 ? Vec3((world - p) / dt_s) : Vec3::Zero();
-    p = world;
-    state->last_good_position[begin + i] = world;
-    state->last_good_velocity[begin + i] = state->velocity[begin + i];
+    p = world;  // last_good_*: the repairs restore guides only; followers are placed anew
   }
 }
 
