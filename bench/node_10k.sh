@@ -3,7 +3,8 @@
 # build and publish at 60 Hz on wall-clock time, and whether the node keeps up.
 #
 #   bench/node_10k.sh [--seconds T] [--strands N] [--follow-ratio K] [--cohesion ours|off]
-#                     [--gather-at all|guides] [--refresh S] [--obstacle SPEC] [--out DIR]
+#                     [--gather-at all|guides] [--refresh S] [--status-only] [--obstacle SPEC]
+#                     [--out DIR]
 #
 # Starts a private roscore, head_motion_publisher (the built-in nod, 120 Hz) and the node on the
 # built-in scene (wet toward the tips) with N output strands of which N / K are guides, a sphere
@@ -15,10 +16,12 @@
 # achieved real-time factors. Defaults: T = 20, N = 10000, K = 10, cohesion ours, the cohesion
 # sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at), the
 # display offsets evaluated every frame (--refresh S: at most every S s, solver.cohesion.
-# refresh_period_s).
+# refresh_period_s). --status-only: the probe subscribes to ~status alone, so ~strands has no
+# subscriber and nothing receives its 9 MB per frame on this machine (a consumer on another
+# machine, or none): the node's own capacity, without a local receiver competing for the cores.
 set -eu
 source "$(dirname "${BASH_SOURCE[0]}")/../scripts/setup_common.sh"
-seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 out=node_10k_out
+seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 status_only=0 out=node_10k_out
 obstacle="sphere:x=-0.16,y=0.0,z=-0.05,r=0.05"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -28,6 +31,7 @@ while [ $# -gt 0 ]; do
     --cohesion) cohesion=$2; shift 2 ;;
     --gather-at) gather_at=$2; shift 2 ;;
     --refresh) refresh=$2; shift 2 ;;
+    --status-only) status_only=1; shift ;;
     --obstacle) obstacle=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     *) echo "node_10k.sh: unknown option $1" >&2; exit 2 ;;
@@ -63,12 +67,12 @@ pids+=($!)
   _solver/cohesion/refresh_period_s:="$refresh" \
   > "$out/node.log" 2>&1 &
 pids+=($!)
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" <<'PY'
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" <<'PY'
 import json, sys, time
 import rospy
 from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
-refresh = float(sys.argv[7])
+refresh, status_only = float(sys.argv[7]), sys.argv[8] == "1"
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -78,7 +82,8 @@ def on_strands(msg):
 def on_status(msg):
     if window["on"]:
         window["status"].append(msg)
-rospy.Subscriber("/wet_curly_hair/strands", rospy.AnyMsg, on_strands, queue_size=2, buff_size=1 << 26)
+if not status_only:
+    rospy.Subscriber("/wet_curly_hair/strands", rospy.AnyMsg, on_strands, queue_size=2, buff_size=1 << 26)
 rospy.Subscriber("/wet_curly_hair/status", Status, on_status, queue_size=100)
 deadline = time.time() + 300
 while not rospy.is_shutdown() and time.time() < deadline:  # the model is built and frames flow
@@ -94,16 +99,16 @@ time.sleep(seconds)
 window["on"] = False
 wall = time.time() - t0
 st = [m for m in window["status"] if m.step_time_s > 0]
-if not st or not window["bytes"]:
+if not st or (not window["bytes"] and not status_only):
     sys.exit("node_10k: no status or strands messages in the window")
 mean = lambda xs: sum(xs) / len(xs)
 first, last = window["status"][0], window["status"][-1]
 r = {
     "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
-    "refresh_period_s": refresh,
+    "refresh_period_s": refresh, "strands_subscribed": not status_only,
     "particles": last.particles, "publish_rate_hz": 1.0 / last.frame_s,
     "window_wall_s": wall,
-    "message_bytes": max(window["bytes"]),
+    "message_bytes": max(window["bytes"]) if window["bytes"] else 0,
     "messages_received_per_s": window["messages"] / wall,
     "received_mb_per_s": sum(window["bytes"]) / wall / 1e6,
     "step_time_s": mean([m.step_time_s for m in st]),

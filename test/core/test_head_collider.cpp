@@ -56,6 +56,34 @@ TEST(HeadCollider, HeadShapeTakesTheClosestShape) {
   EXPECT_NEAR(h.distance(Vec3(0.06, 0, -0.25), &n), 0.01, 1e-12);
 }
 
+TEST(HeadCollider, SurelyFartherThanNeverHidesAContact) {
+  // Points all around the default head with a neck: whenever the cheap bound says "farther than
+  // d", the full distance agrees; on a sphere the bound is the distance itself, so it answers
+  // true exactly beyond d (plus its 1 nm margin).
+  HeadShape h;
+  h.capsules.push_back({"neck", Vec3(-0.01, 0, -0.06), Vec3(-0.02, 0, -0.25), 0.055});
+  int said_far = 0, points = 0;
+  for (double th = 0.05; th < 3.1; th += 0.1)
+    for (double ph = 0.0; ph < 6.2; ph += 0.2)
+      for (double r = 0.05; r < 0.4; r += 0.01) {
+        const Vec3 x =
+            r * Vec3(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+        for (double d : {0.0, 0.002, 0.01}) {
+          Vec3 n;
+          ++points;
+          if (!h.surelyFartherThan(x, d)) continue;
+          ++said_far;
+          ASSERT_GE(h.distance(x, &n), d) << x.transpose() << " d " << d;
+        }
+      }
+  EXPECT_GT(said_far, points / 3) << "the bound never helps";
+  HeadShape sphere;
+  sphere.ellipsoid.radii_m = Vec3(0.1, 0.1, 0.1);
+  EXPECT_TRUE(sphere.surelyFartherThan(Vec3(0, 0, 0.1021), 0.002));
+  EXPECT_FALSE(sphere.surelyFartherThan(Vec3(0, 0, 0.1019), 0.002));
+  EXPECT_FALSE(sphere.surelyFartherThan(Vec3(0, 0, 0.05), 0.0));  // inside
+}
+
 TEST(HeadCollider, ProjectionIsInelasticWithoutAddedVelocity) {
   Vec3 x(0, 0, -0.002), v(0.0, 0.0, -1.0);
   EXPECT_TRUE(collideParticle(-0.002, Vec3::UnitZ(), 0.001, 0.0, Vec3::Zero(), &x, &v));

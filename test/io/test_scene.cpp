@@ -94,7 +94,7 @@ TEST(Scene, BuiltinSceneMatchesTheShippedDefaultYaml) {
 }
 
 TEST(Scene, EveryShippedSceneLoadsAndBuilds) {
-  for (const char* name : {"default", "straight", "spin", "water_demo"}) {
+  for (const char* name : {"default", "straight", "spin", "water_demo", "dense_10k"}) {
     SceneConfig scene;
     std::string why;
     const std::string path = std::string(WCH_SOURCE_DIR "/config/scenes/") + name + ".yaml";

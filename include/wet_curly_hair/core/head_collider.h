@@ -125,6 +125,21 @@ struct HeadShape {
     *normal = toEigen(n);
     return d;
   }
+  /// Whether distance(x) >= d for sure, without the ellipsoid's divisions: its distance
+  /// k0 (k0 - 1) / k1 (k0 = |x / r|, k1 = |x / r^2| <= k0 / r_min) is at least r_min (k0 - 1)
+  /// outside it; the capsules' exact distances. 1 nm of margin covers the round-off of the
+  /// bound, so a true answer never hides a contact; false says nothing.
+  bool surelyFartherThan(const Vec3& x, double d) const {
+    const Vec3 q = (x - ellipsoid.center_m).cwiseProduct(ellipsoid.radii_m.cwiseInverse());
+    const double k0 = q.norm();
+    if (!(ellipsoid.radii_m.minCoeff() * (k0 - 1.0) >= d + kSurelyMargin_m)) return false;
+    for (const CapsuleShape& c : capsules) {
+      Vec3 n;
+      if (!(capsuleDistance(c, x, &n) >= d)) return false;
+    }
+    return true;
+  }
+  static constexpr double kSurelyMargin_m = 1e-9;
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
