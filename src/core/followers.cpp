@@ -252,12 +252,10 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
       x += w * (guide + turn[a] * (rest[i] - guide_rest));
     }
     Vec3 normal;
+    // As the solver: never pushed farther out than the particle's rest distance.
+    const double offset = std::min(hc.offset_m, model.rest_head_distance_m[begin + i]);
     // Most of a hanging strand is far from the head: the cheap bound skips its projection.
-    if (i > 0 && hc.head_enabled &&
-        !model.head.surelyFartherThan(
-            x, std::min(hc.offset_m, model.rest_head_distance_m[begin + i]))) {
-      // As the solver: never pushed farther out than the particle's rest distance.
-      const double offset = std::min(hc.offset_m, model.rest_head_distance_m[begin + i]);
+    if (i > 0 && hc.head_enabled && !model.head.surelyFartherThan(x, offset)) {
       // The ellipsoid's distance is approximate off its surface: a deep particle lands short of
       // the offset after one projection, so project again (at most a few times).
       for (int round = 0; round < kFollowerProjectionRounds; ++round) {
