@@ -533,7 +533,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const double h = cfg.radius_m, h2 = h * h;
   const bool single = cfg.grid_single_precision;
   // With gather_at "guides" the sums of eq. (10) run over the guide particles only (wet or dry:
-  // wet followers interpolate their clump targets); every particle is still splatted.
+  // wet followers interpolate their display offsets); every particle is still splatted.
   const int guide_strands = model.followers.guide_strands;
   const bool at_guides = cfg.gather_at == "guides" && guide_strands > 0;
   const int gathered = at_guides ? static_cast<int>(model.strandBegin(guide_strands)) : n;
@@ -607,7 +607,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     toSingle(g.qy, &g.qy_f, nodes, threads);
     toSingle(g.qz, &g.qz_f, nodes, threads);
   }
-  // The own strands' shares in float, a strand at a time (strands with a wet particle only).
+  // The own strands' shares in float, a strand at a time (strands with a wet particle only;
+  // every guide with gather_at "guides").
   if (single) {
     parallelFor(threads, Schedule::kDynamic, 16, gathered_strands, [&](int s) {
       const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
