@@ -46,9 +46,15 @@ void saturationColor(double s, float* r, float* g, float* b) {
   *b = static_cast<float>(0.45 + (0.85 - 0.45) * s);
 }
 
+int markerStrandStride(int strands, int max_strands) {
+  if (max_strands <= 0 || strands <= max_strands) return 1;
+  return (strands + max_strands - 1) / max_strands;
+}
+
 void stateToMarkerArray(const HairModel& model, const HairState& state, bool use_wet_positions,
                         const std_msgs::Header& header, double line_width_m,
-                        visualization_msgs::MarkerArray* markers) {
+                        visualization_msgs::MarkerArray* markers, int strand_stride) {
+  strand_stride = std::max(1, strand_stride);
   markers->markers.resize(1);
   visualization_msgs::Marker& m = markers->markers[0];
   m.header = header;
@@ -67,11 +73,13 @@ void stateToMarkerArray(const HairModel& model, const HairState& state, bool use
   const Vec3List& x = use_wet_positions && state.wet_position.size() == state.position.size()
                           ? state.wet_position
                           : state.position;
-  const size_t edges = static_cast<size_t>(model.particleCount() - model.strandCount());
+  size_t edges = 0;
+  for (int s = 0; s < model.strandCount(); s += strand_stride)
+    edges += static_cast<size_t>(model.strandSize(s) - 1);
   m.points.resize(2 * edges);
   m.colors.resize(2 * edges);
   size_t k = 0;
-  for (int s = 0; s < model.strandCount(); ++s) {
+  for (int s = 0; s < model.strandCount(); s += strand_stride) {
     const int b = model.strandBegin(s), e = b + model.strandSize(s);
     for (int i = b; i + 1 < e; ++i) {
       for (int j = 0; j < 2; ++j, ++k) {

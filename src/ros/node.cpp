@@ -246,7 +246,8 @@ void WetCurlyHairNode::onTimer(const ros::TimerEvent&) {
     auto t0 = Clock::now();
     // Only "ours" computes display positions p^w; the other modes leave them equal to x.
     stateToMarkerArray(model_, state_, scene_.solver.cohesion.mode == "ours", header,
-                       config_.marker_line_width_m, &markers_msg_);
+                       config_.marker_line_width_m, &markers_msg_,
+                       markerStrandStride(model_.strandCount(), config_.marker_max_strands));
     appendSceneMarkersLocked(header);
     tick_convert_s_ += wallSince(t0);
     t0 = Clock::now();

@@ -317,6 +317,7 @@ bool NodeConfig::validate(std::string* why) const {
          finiteInRange("~tf_timeout_s", tf_timeout_s, 0.0, 10.0, why) &&
          finiteInRange("~max_catchup_frames", max_catchup_frames, 1, 100000, why) &&
          finiteInRange("~marker_line_width_m", marker_line_width_m, 1e-6, 1.0, why) &&
+         finiteInRange("~marker_max_strands", marker_max_strands, 0, 100000000, why) &&
          finiteInRange("~map_frame_timeout_s", map_frame_timeout_s, 0.0, 60.0, why);
 }
 
@@ -329,6 +330,7 @@ bool nodeConfigFromRos(const ros::NodeHandle& pnh, NodeConfig* config, std::stri
       !readParam(pnh, "max_catchup_frames", &c.max_catchup_frames, "an integer", why) ||
       !readParam(pnh, "publish_markers", &c.publish_markers, "a boolean", why) ||
       !readParam(pnh, "marker_line_width_m", &c.marker_line_width_m, "a number (m)", why) ||
+      !readParam(pnh, "marker_max_strands", &c.marker_max_strands, "an integer", why) ||
       !readParam(pnh, "obstacle_map_frame", &c.obstacle_map_frame, "a string (frame id)", why) ||
       !readParam(pnh, "map_frame_timeout_s", &c.map_frame_timeout_s, "a number (s)", why))
     return false;

@@ -117,6 +117,24 @@ TEST(Conversions, MarkerIsOneLineListWithTwoColouredPointsPerEdge) {
   for (const auto& k : c) EXPECT_EQ(k.a, 1.0f);
 }
 
+TEST(Conversions, MarkerDrawsEveryKthStrandBeyondItsLimit) {
+  const HairModel model = smallModel();  // 5 strands of 7 particles
+  const HairState state = makeState(model, Pose(), Twist());
+  EXPECT_EQ(markerStrandStride(5, 0), 1);
+  EXPECT_EQ(markerStrandStride(5, 5), 1);
+  EXPECT_EQ(markerStrandStride(5, 2), 3);  // strands 0 and 3
+  EXPECT_EQ(markerStrandStride(10000, 2000), 5);
+  visualization_msgs::MarkerArray a;
+  stateToMarkerArray(model, state, false, std_msgs::Header(), 0.002, &a,
+                     markerStrandStride(model.strandCount(), 2));
+  const auto& m = a.markers[0];
+  ASSERT_EQ(m.points.size(), 2u * 2u * 6u);
+  EXPECT_DOUBLE_EQ(m.points[0].x, state.position[0].x());
+  const int third = model.strandBegin(3);
+  EXPECT_DOUBLE_EQ(m.points[12].x, state.position[third].x());
+  EXPECT_DOUBLE_EQ(m.points[23].z, state.position[third + 6].z());
+}
+
 TEST(Conversions, SaturationColourMapRunsFromTanToBlue) {
   // The documented map (conversions.h): dry light tan, fully wet deep blue, a linear blend.
   const Rgb dry = colorOf(0.0), wet = colorOf(1.0);

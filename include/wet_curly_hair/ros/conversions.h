@@ -36,12 +36,15 @@ void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with
 void saturationColor(double s, float* r, float* g, float* b);
 
 /// Resets *markers to one LINE_LIST marker (ns "wet_curly_hair/strands", id 0) holding every edge
-/// of every strand, two points per edge, each vertex coloured by its particle's saturation. Uses
-/// the cohesion display positions when `use_wet_positions` (what the user should see), else the
-/// positions.
+/// of every strand (of every strand_stride-th strand: 0, k, 2k, ...), two points per edge, each
+/// vertex coloured by its particle's saturation. Uses the cohesion display positions when
+/// `use_wet_positions` (what the user should see), else the positions.
 void stateToMarkerArray(const HairModel& model, const HairState& state, bool use_wet_positions,
                         const std_msgs::Header& header, double line_width_m,
-                        visualization_msgs::MarkerArray* markers);
+                        visualization_msgs::MarkerArray* markers, int strand_stride = 1);
+
+/// The stride that keeps at most max_strands of `strands` (0: all): ceil(strands / max_strands).
+int markerStrandStride(int strands, int max_strands);
 
 /// Marker namespaces on ~markers (docs/ros.md).
 constexpr const char* kStrandsMarkerNs = "wet_curly_hair/strands";

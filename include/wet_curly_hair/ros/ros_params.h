@@ -27,6 +27,9 @@ struct NodeConfig {
   int max_catchup_frames = 10;
   bool publish_markers = true;          ///< publish ~markers (visualization_msgs/MarkerArray).
   double marker_line_width_m = 0.0015;  ///< LINE_LIST width in RViz, m.
+  /// Most strands the hair marker draws: every ceil(N / max)-th strand beyond (0: all). At
+  /// 10,000 strands the whole LINE_LIST is 25 MB per frame, more than RViz draws at 60 Hz.
+  int marker_max_strands = 2000;
   /// tf2 frame of the scene's obstacle map file (scene parameters obstacle_map.*): "" places the
   /// map at obstacle_map.offset_m in world_frame; a frame places it there in that frame.
   std::string obstacle_map_frame;
