@@ -619,7 +619,7 @@ int benchCohesion(const Options& opt, bool* all_ok) {
       opt.quick ? std::vector<Evaluation>{{"exact", 4}, {"grid", 4}}
                 : std::vector<Evaluation>{{"exact", 4}, {"grid", 4}, {"grid", 3}, {"grid", 2}};
   const std::vector<int> counts =
-      opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000};
+      opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000, 2000};
   for (int count : counts) {
     RunResult exact_frames;
     double displacement_rms = 0.0;
