@@ -573,10 +573,14 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     const double rho = single ? gatherScalarSingle<kCells>(L, g.scalar_f.data(), ri, h2)
                               : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
     state->density[i] = norm * rho;
+    g.volume[i] = model.mass_kg[i] / state->density[i];
   });
-  if (at_guides) interpolateFollowerDensity(model, state, threads);
-  parallelFor(threads, Schedule::kStatic, 0, int(n),
-              [&](int i) { g.volume[i] = model.mass_kg[i] / state->density[i]; });
+  if (at_guides) {  // the followers' densities from their guides', then their volumes
+    interpolateFollowerDensity(model, state, threads);
+    parallelFor(threads, Schedule::kStatic, 0, n - gathered, [&](int k) {
+      g.volume[gathered + k] = model.mass_kg[gathered + k] / state->density[gathered + k];
+    });
+  }
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})

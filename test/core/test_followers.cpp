@@ -25,6 +25,20 @@ Groom curlyGroom(int strands, int particles = 32) {
   return generateGroom(c, EllipsoidShape());
 }
 
+/// Six curly strands with strand 0 repeated as strand 1 (seven in all): farthest-point sampling
+/// keeps 0 as a guide and never picks 1, which then follows 0 alone.
+Groom twinGroom() {
+  const Groom g = curlyGroom(6);
+  Groom twin;
+  for (int src : {0, 0, 1, 2, 3, 4, 5}) {
+    twin.points.insert(twin.points.end(), g.points.begin() + g.strand_offsets[src],
+                       g.points.begin() + g.strand_offsets[src + 1]);
+    twin.strand_offsets.push_back(static_cast<uint32_t>(twin.points.size()));
+    twin.root_normals.push_back(g.root_normals[src]);
+  }
+  return twin;
+}
+
 HairModel followerModel(const Groom& g, int follow_ratio, const SolverConfig& c) {
   HairModel m;
   std::string why;
@@ -199,14 +213,7 @@ TEST(Followers, AFollowerOnAGuidesRootWithItsShapeCopiesIt) {
   // Strand 1 is strand 0 again: farthest-point sampling keeps 0 as a guide and never picks 1;
   // on 0's root its weight is 1, its arc-length samples fall on 0's particles, its saturation
   // is 0's: it must be 0, wet, nodding, near an obstacle.
-  const Groom g = curlyGroom(6);
-  Groom twin;
-  for (int src : {0, 0, 1, 2, 3, 4, 5}) {
-    twin.points.insert(twin.points.end(), g.points.begin() + g.strand_offsets[src],
-                       g.points.begin() + g.strand_offsets[src + 1]);
-    twin.strand_offsets.push_back(static_cast<uint32_t>(twin.points.size()));
-    twin.root_normals.push_back(g.root_normals[src]);
-  }
+  const Groom twin = twinGroom();
   ASSERT_EQ(twin.strandCount(), 7);
   std::string why;
   ASSERT_TRUE(twin.validate(&why)) << why;
@@ -235,14 +242,7 @@ TEST(Followers, WithTheSumsAtTheGuidesAFollowerOnAGuideTakesItsDisplay) {
   // cohesion.gather_at "guides": strand 1 is strand 0 again (as above), so the offsets it
   // interpolates are 0's alone, at 0's particles: its p^w must be 0's, which moved (clumped).
   // Evaluated exactly and on the lattice.
-  const Groom g = curlyGroom(6);
-  Groom twin;
-  for (int src : {0, 0, 1, 2, 3, 4, 5}) {
-    twin.points.insert(twin.points.end(), g.points.begin() + g.strand_offsets[src],
-                       g.points.begin() + g.strand_offsets[src + 1]);
-    twin.strand_offsets.push_back(static_cast<uint32_t>(twin.points.size()));
-    twin.root_normals.push_back(g.root_normals[src]);
-  }
+  const Groom twin = twinGroom();
   for (const std::string evaluation : {"exact", "grid"}) {
     SolverConfig c;
     c.cohesion.gather_at = "guides";

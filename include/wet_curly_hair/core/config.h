@@ -199,9 +199,9 @@ struct CohesionConfig {
   /// (docs/physics.md §7.3).
   bool grid_single_precision = true;
   /// Where eq. (10)'s sums are evaluated when the groom has followers (followers.h): "all"
-  /// output particles, or the "guides" only, each follower then taking its guides' clump targets
-  /// interpolated as its position is (docs/followers.md). Every particle's volume still enters
-  /// the sums, so clumps are as dense as the groom either way.
+  /// output particles, or the "guides" only, each follower then taking its guides' display
+  /// offsets interpolated as its position is (docs/followers.md: about half the cost, but not a
+  /// follower's own offset). Every particle's volume still enters the sums either way.
   std::string gather_at = "all";
   /// Mode "ours": the display offsets p^w - p are evaluated at most this often, s, and held
   /// (applied to the current positions, of wet particles) between evaluations; 0: every step.
