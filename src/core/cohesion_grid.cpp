@@ -172,61 +172,95 @@ double gatherScalar(const Lattice& L, const Real* __restrict a, const Vec3& r, d
   return sum;
 }
 
-/// The float gathers for row widths that divide a register of floats (4 nodes at 2 nodes per
-/// radius; 8 at 4 with AVX-512): kRows rows of one layer (consecutive ky) share a vector, so a
-/// gather reads 2-4x fewer vectors than with one row per vector, half of whose lanes are padding
-/// at 2 nodes per radius. Same window, same per-node kernel values as RowWindow; only the order
-/// of the sums differs.
+/// The smallest power of two that holds a row of the window (2 kCells nodes).
+constexpr int paddedRowWidth(int width) {
+  int p = 1;
+  while (p < width) p *= 2;
+  return p;
+}
+
+/// The float gathers where two or more rows fit a register of floats (rows of 4 nodes at 2 nodes
+/// per radius; with AVX-512 rows of 6 nodes, padded to 8, at 3, and of 8 at 4): kRows rows of one
+/// layer (consecutive ky) share a vector, so a gather runs 2-4x fewer vector iterations than with
+/// one row per vector. A row of 2 kCells nodes takes kPadded lanes; the lanes past its width are
+/// given dx^2 = 4 h^2 (q = 0), as in RowWindow. Same window, same per-node kernel values as
+/// RowWindow; only the order of the sums differs.
 template <int kCells>
 struct PackedRowWindow {
   static constexpr int kWidth = 2 * kCells;
+  static constexpr int kPadded = paddedRowWidth(kWidth);
   static constexpr int kVectorLanes = kCohesionFloatLanes;
-  static constexpr int kRows = kVectorLanes / kWidth;  ///< rows per vector
-  static constexpr int kGroups = kWidth / kRows;       ///< vectors per layer
-  static_assert(kRows >= 2 && kRows * kWidth == kVectorLanes && kGroups * kRows == kWidth,
+  static constexpr int kRows = kVectorLanes / kPadded;  ///< rows per vector
+  static constexpr int kGroups = kWidth / kRows;        ///< vectors per layer
+  static_assert(kRows >= 2 && kRows * kPadded == kVectorLanes && kGroups * kRows == kWidth,
                 "rows must tile the register");
   typedef typename FloatLanes<kVectorLanes>::type V;
+  typedef typename FloatLanes<kPadded>::type Row;
   int64_t kx0, ky0, kz0;
-  V dx, dx2;                    ///< per lane: the node's x offset (lane % kWidth)
-  V dy[kGroups], dy2[kGroups];  ///< per lane: the row's y offset (row g kRows + lane / kWidth)
+  V dx, dx2;                    ///< per lane: the node's x offset (lane % kPadded)
+  V dy[kGroups], dy2[kGroups];  ///< per lane: the row's y offset (row g kRows + lane / kPadded)
   float group_dy2[kGroups];     ///< the smallest dy^2 of a group's rows
   float dz[kWidth], dz2[kWidth];
-  PackedRowWindow(const Lattice& L, const Vec3& r) {
+  PackedRowWindow(const Lattice& L, const Vec3& r, double h2) {
     kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - kCells + 1;
     ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - kCells + 1;
     kz0 = static_cast<int64_t>(std::floor(r.z() * L.inv_c)) - kCells + 1;
-    for (int l = 0; l < kVectorLanes; ++l) {
-      const double d = double(kx0 + l % kWidth) * L.c - r.x();
-      dx[l] = static_cast<float>(d);
-      dx2[l] = static_cast<float>(d * d);
+    // One row's x offsets, repeated in every row of the register.
+    Row row_dx, row_dx2;
+    for (int j = 0; j < kPadded; ++j) {
+      const double d = double(kx0 + j) * L.c - r.x();
+      row_dx[j] = j < kWidth ? static_cast<float>(d) : 0.0f;
+      row_dx2[j] = static_cast<float>(j < kWidth ? d * d : 4.0 * h2);
+    }
+    dx = repeatRow(row_dx);
+    dx2 = repeatRow(row_dx2);
+    float row_dy[kWidth], row_dy2[kWidth];
+    for (int j = 0; j < kWidth; ++j) {
+      const double ey = double(ky0 + j) * L.c - r.y(), ez = double(kz0 + j) * L.c - r.z();
+      row_dy[j] = static_cast<float>(ey);
+      row_dy2[j] = static_cast<float>(ey * ey);
+      dz[j] = static_cast<float>(ez);
+      dz2[j] = static_cast<float>(ez * ez);
     }
     for (int g = 0; g < kGroups; ++g) {
-      group_dy2[g] = INFINITY;
-      for (int l = 0; l < kVectorLanes; ++l) {
-        const double e = double(ky0 + g * kRows + l / kWidth) * L.c - r.y();
-        dy[g][l] = static_cast<float>(e);
-        dy2[g][l] = static_cast<float>(e * e);
-        group_dy2[g] = std::min(group_dy2[g], dy2[g][l]);
-      }
+      dy[g] = rowsOf(row_dy + g * kRows);
+      dy2[g] = rowsOf(row_dy2 + g * kRows);
+      group_dy2[g] = row_dy2[g * kRows];
+      for (int k = 1; k < kRows; ++k) group_dy2[g] = std::min(group_dy2[g], row_dy2[g * kRows + k]);
     }
-    for (int a = 0; a < kWidth; ++a) {
-      const double ez = double(kz0 + a) * L.c - r.z();
-      dz[a] = static_cast<float>(ez);
-      dz2[a] = static_cast<float>(ez * ez);
+  }
+  /// A row's lanes repeated kRows times.
+  static V repeatRow(Row r) {
+    if constexpr (kRows == 2) {
+      return concatLanes<kPadded>(r, r);
+    } else {
+      static_assert(kRows == 4, "2 or 4 rows per register");
+      const auto two = concatLanes<kPadded>(r, r);
+      return concatLanes<2 * kPadded>(two, two);
+    }
+  }
+  /// kRows values, each over its row's kPadded lanes.
+  static V rowsOf(const float* v) {
+    Row r[kRows];
+    for (int k = 0; k < kRows; ++k) r[k] = Row{} + v[k];
+    if constexpr (kRows == 2) {
+      return concatLanes<kPadded>(r[0], r[1]);
+    } else {
+      return concatLanes<2 * kPadded>(concatLanes<kPadded>(r[0], r[1]),
+                                      concatLanes<kPadded>(r[2], r[3]));
     }
   }
   /// The kRows rows of a group, from its first node, as one vector (row loads joined in
-  /// registers: a copy through memory stalled on store forwarding, 2x the whole pass).
+  /// registers: a copy through memory stalled on store forwarding, 2x the whole pass). A padded
+  /// row reads nodes past the window's, inside the lattice or its padding.
   static V load(const float* a, int64_t first, int64_t nx) {
-    typedef typename FloatLanes<kWidth>::type Row;
     Row r[kRows];
     for (int k = 0; k < kRows; ++k) r[k] = loadLanes<Row>(a + first + k * nx);
     if constexpr (kRows == 2) {
-      return concatLanes<kWidth>(r[0], r[1]);
+      return concatLanes<kPadded>(r[0], r[1]);
     } else {
-      static_assert(kRows == 4, "2 or 4 rows per register");
-      return concatLanes<2 * kWidth>(concatLanes<kWidth>(r[0], r[1]),
-                                     concatLanes<kWidth>(r[2], r[3]));
+      return concatLanes<2 * kPadded>(concatLanes<kPadded>(r[0], r[1]),
+                                      concatLanes<kPadded>(r[2], r[3]));
     }
   }
   /// Calls group(first node, g, dz, dz^2) for every group with a row within h.
@@ -252,16 +286,15 @@ struct PackedRowWindow {
 
 /// Whether the packed float gathers apply at kCells nodes per radius.
 template <int kCells>
-constexpr bool kPackedRows = kCohesionFloatLanes % (2 * kCells) == 0 && kCohesionFloatLanes /
-                                                                                (2 * kCells) >=
-                                                                            2;
+constexpr bool kPackedRows = kCohesionFloatLanes / paddedRowWidth(2 * kCells) >= 2 &&
+                             (2 * kCells) % (kCohesionFloatLanes / paddedRowWidth(2 * kCells)) == 0;
 
 /// gatherScalar in float with packed rows.
 template <int kCells>
 double gatherScalarPacked(const Lattice& L, const float* __restrict a, const Vec3& r, double h2d) {
   typedef PackedRowWindow<kCells> Window;
   typedef typename Window::V V;
-  const Window win(L, r);
+  const Window win(L, r, h2d);
   const float ka = static_cast<float>(L.ka), kb = static_cast<float>(L.kb);
   const float h2 = static_cast<float>(h2d);
   const V zero = {};
@@ -327,7 +360,7 @@ template <int kCells>
 WetSums gatherWetPacked(const Lattice& L, const WetNodes<float>& g, const Vec3& r, double h2d) {
   typedef PackedRowWindow<kCells> Window;
   typedef typename Window::V V;
-  const Window win(L, r);
+  const Window win(L, r, h2d);
   const float ka = static_cast<float>(L.ka), kb = static_cast<float>(L.kb);
   const float h2 = static_cast<float>(h2d);
   const int64_t nx = L.nx;
