@@ -196,7 +196,13 @@ void gatherBlock(Block<S>& blk) {
     // A padding lane repeats the last real strand, whose factors the scratch already holds.
     if (blk.realLane(l))
       prepareStrandStep(model, blk.config, blk.strand[l], blk.flags[l], blk.h, state, blk.scratch);
-    for (int i = 0; i < blk.n; ++i) {
+    for (int i = 0; i < blk.n; ++i)
+      setLaneValue(&a.factor[i], l, blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
+  }
+  // Particle by particle, every lane: the lane arrays of one particle are written together (lane
+  // by lane, each store touched all of the block's arrays, more than the L1 cache holds).
+  for (int i = 0; i < blk.n; ++i) {
+    for (int l = 0; l < Block<S>::kWidth; ++l) {
       const int k = blk.begin[l] + i;
       // The carry starts as what rounding the position into the lane lost, and goes back out at
       // the scatter: the position keeps double's resolution from step to step.
@@ -207,7 +213,6 @@ void gatherBlock(Block<S>& blk) {
       setLaneValue(&a.sigma[i], l, state.saturation[k]);
       setLaneValue(&a.m[i], l, model.mass_kg[k]);
       setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
-      setLaneValue(&a.factor[i], l, blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
       setLaneValue(&a.obstacle_slack[i], l, -1.0);
       setLaneValue(&a.rest_head_distance[i], l, model.rest_head_distance_m[k]);
       if (i < blk.edges) {
@@ -350,11 +355,12 @@ template <typename S>
 uint64_t curlForces(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
   M33<S> rot = splat33<S>(Mat3::Identity());
+  const double follow = curlFollowFraction(blk.config.curl, blk.h);
   for (int l = 0; l < Block<S>::kWidth; ++l) {
     if (!blk.curl_on[l]) continue;
     if (blk.realLane(l))
-      updateCurlRotation(blk.model, blk.config.curl, blk.strand[l], lane(a.p[0], l),
-                         lane(a.p[blk.n - 1], l), blk.h, blk.state);
+      updateCurlRotation(blk.model, blk.strand[l], lane(a.p[0], l), lane(a.p[blk.n - 1], l), follow,
+                         blk.state);
     setLane(&rot, l, blk.state->curl_rotation[blk.strand[l]]);
   }
   const S w = blk.curl_weight;
