@@ -100,20 +100,25 @@ SubstepMotion substepMotion(const StepInputs& inputs, double s0, double s1, doub
   return m;
 }
 
-void updateCurlRotation(const HairModel& model, const CurlConfig& config, int strand,
-                        const Vec3& root, const Vec3& tip, double h, HairState* state) {
+double curlFollowFraction(const CurlConfig& config, double h) {
+  const double tc = config.rotation_time_constant_s;
+  return tc > 0.0 ? 1.0 - std::exp(-h / tc) : 1.0;
+}
+
+void updateCurlRotation(const HairModel& model, int strand, const Vec3& root, const Vec3& tip,
+                        double follow_fraction, HairState* state) {
   const Vec3 axis = tip - root;
   const double len = axis.norm();
   // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
   if (!(len > 1e-3 * model.strand_length_m[strand])) return;
-  const Mat3 target_rotation = helixToHairRotation(model.helix_axis[strand], axis / len);
-  const double tc = config.rotation_time_constant_s;
-  if (tc <= 0.0) {
-    state->curl_rotation[strand] = target_rotation;
+  const Vec3& helix_axis = model.helix_axis[strand];
+  const Vec3 hair_axis = axis / len;
+  if (follow_fraction >= 1.0) {
+    state->curl_rotation[strand] = helixToHairRotation(helix_axis, hair_axis);
   } else {
-    const Quat from(state->curl_rotation[strand]), to(target_rotation);
-    state->curl_rotation[strand] =
-        from.slerp(1.0 - std::exp(-h / tc), to).normalized().toRotationMatrix();
+    const Quat from(state->curl_rotation[strand]);
+    const Quat to = helixToHairQuaternion(helix_axis, hair_axis);
+    state->curl_rotation[strand] = from.slerp(follow_fraction, to).normalized().toRotationMatrix();
   }
 }
 

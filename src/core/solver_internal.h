@@ -71,11 +71,15 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, int s
                        const StrandFlags& flags, double h, const HairState& state,
                        StrandScratch* scratch);
 
+/// How far M moves toward its target in a substep of h: 1 - exp(-h / tau) for the time constant
+/// tau = CurlConfig::rotation_time_constant_s, 1 (at once) for tau = 0.
+double curlFollowFraction(const CurlConfig& config, double h);
+
 /// Eqs. (7)-(8), A8: moves strand's curl rotation M toward the one taking its helix axis onto the
-/// root-to-tip direction (time constant CurlConfig::rotation_time_constant_s); kept when the
-/// strand curls back onto its root.
-void updateCurlRotation(const HairModel& model, const CurlConfig& config, int strand,
-                        const Vec3& root, const Vec3& tip, double h, HairState* state);
+/// root-to-tip direction by follow_fraction (curlFollowFraction; a slerp, at once for 1); kept
+/// when the strand curls back onto its root.
+void updateCurlRotation(const HairModel& model, int strand, const Vec3& root, const Vec3& tip,
+                        double follow_fraction, HairState* state);
 
 SubstepMotion substepMotion(const StepInputs& inputs, double s0, double s1, double h);
 

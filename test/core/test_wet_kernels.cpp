@@ -28,7 +28,17 @@ TEST(Curl, RotationMapsHelixAxisOntoHairAxis) {
     EXPECT_LT((m * h - p).norm(), 1e-12) << h.transpose() << " -> " << p.transpose();
     EXPECT_LT((m.transpose() * m - Mat3::Identity()).norm(), 1e-12);
     EXPECT_NEAR(m.determinant(), 1.0, 1e-12);
+    // The quaternion the time-constant filter slerps is the same rotation (about h x p, or the
+    // half turn for opposite axes).
+    const Quat q = helixToHairQuaternion(h, p);
+    EXPECT_NEAR(q.norm(), 1.0, 1e-14);
+    EXPECT_LT((q.toRotationMatrix() - m).norm(), 1e-12) << h.transpose() << " -> " << p.transpose();
   }
+  // The analytic half-angle form: a quarter turn about z takes x to y, q = (cos 45, 0, 0, sin 45).
+  const Quat quarter = helixToHairQuaternion(Vec3::UnitX(), Vec3::UnitY());
+  EXPECT_NEAR(quarter.w(), std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(quarter.z(), std::sqrt(0.5), 1e-15);
+  EXPECT_NEAR(quarter.vec().head<2>().norm(), 0.0, 1e-15);
 }
 
 TEST(Curl, TheLiteralEq7DirectionIsTheTranspose) {

@@ -26,6 +26,16 @@ WCH_INLINE Mat3 helixToHairRotation(const Vec3& h_unit, const Vec3& p_unit) {
   return minimalRotation(h_unit, p_unit);
 }
 
+/// helixToHairRotation as a unit quaternion, for the time-constant filter that slerps M
+/// (CurlConfig::rotation_time_constant_s): (1 + c, h x p) normalised is (cos(t/2), sin(t/2) n) of
+/// the same minimal rotation by t about n; nearly opposite vectors take the matrix's half turn.
+WCH_INLINE Quat helixToHairQuaternion(const Vec3& h_unit, const Vec3& p_unit) {
+  const double c = h_unit.dot(p_unit);
+  if (c < kOppositeCosine) return Quat(helixToHairRotation(h_unit, p_unit));
+  const Vec3 g = h_unit.cross(p_unit);
+  return Quat(1.0 + c, g.x(), g.y(), g.z()).normalized();
+}
+
 /// The paper's literal eq. (7) direction (A7): rotates the hair direction onto the helix
 /// direction, M_literal p = h. Kept for the test that shows it is the transpose of the above.
 WCH_INLINE Mat3 literalEq7Rotation(const Vec3& h_unit, const Vec3& p_unit) {
