@@ -133,19 +133,36 @@ int blockStrands(const HairModel& model, int first_strand, int width) {
 }
 
 void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
-                       const StrandFlags& flags, double h, const HairState& state,
+                       const StrandFlags& flags, double h, HairState* state,
                        StrandScratch* scratch) {
   if (!stiffnessActive(config, flags)) return;
   const StiffnessConfig& st = config.stiffness;
   const int begin = model.strandBegin(strand);
   const double dry =
       stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h, st.reference_step_s);
+  // A particle's factor from the last step stands while its saturation and the strand's other
+  // inputs are the same: the same function of the same values.
+  StiffnessFactorKey key;
+  key.global_factor = st.global_factor;
+  key.wet_factor = st.wet_factor;
+  key.dry_factor = st.dry_factor;
+  key.substep_s = h;
+  key.reference_step_s = st.reference_step_s;
+  const bool same_key = state->stiffness_factor_key[strand] == key;
+  state->stiffness_factor_key[strand] = key;
   for (int i = 0; i < model.strandSize(strand); ++i) {
-    const double sigma = state.saturation[begin + i];
-    scratch->velocity_factor[i] =
-        sigma > 0.0 ? stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, sigma, h,
-                                      st.reference_step_s)
-                    : dry;
+    const int k = begin + i;
+    const double sigma = state->saturation[k];
+    if (!(sigma > 0.0)) {
+      scratch->velocity_factor[i] = dry;
+      continue;
+    }
+    if (!same_key || state->stiffness_factor_saturation[k] != sigma) {
+      state->stiffness_factor[k] = stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor,
+                                                   sigma, h, st.reference_step_s);
+      state->stiffness_factor_saturation[k] = sigma;
+    }
+    scratch->velocity_factor[i] = state->stiffness_factor[k];
   }
 }
 

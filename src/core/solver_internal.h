@@ -68,7 +68,7 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
 /// (the eq. 13 velocity factors).
 void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
-                       const StrandFlags& flags, double h, const HairState& state,
+                       const StrandFlags& flags, double h, HairState* state,
                        StrandScratch* scratch);
 
 /// How far M moves toward its target in a substep of h: 1 - exp(-h / tau) for the time constant

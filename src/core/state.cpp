@@ -100,6 +100,9 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.wet_position.assign(n, Vec3::Zero());
   state.display_offset.assign(n, Vec3::Zero());
   state.curl_rotation.assign(model.strandCount(), Mat3::Identity());
+  state.stiffness_factor.assign(n, 1.0);
+  state.stiffness_factor_saturation.assign(n, std::numeric_limits<double>::quiet_NaN());
+  state.stiffness_factor_key.assign(model.strandCount(), StiffnessFactorKey());
   state.external_force.assign(n, Vec3::Zero());
   state.density.assign(n, 0.0);
   state.normal_scratch.assign(n, Vec3::Zero());

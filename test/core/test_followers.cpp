@@ -71,7 +71,7 @@ HairState wetNodRun(const HairModel& m, const SolverConfig& c, int frames) {
 
 /// Every guide at its rest shape carried by `pose` (followers anywhere).
 void guidesAtRest(const HairModel& m, const Pose& pose, HairState* s) {
-  for (int i = 0; i < m.strand_offsets[m.followers.guide_strands]; ++i)
+  for (int i = 0; i < static_cast<int>(m.strand_offsets[m.followers.guide_strands]); ++i)
     s->position[i] = pose.apply(m.rest_position_head[i]);
 }
 
@@ -326,7 +326,7 @@ TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
   const HairModel m = followerModel(curlyGroom(120), 4, c);
   const Pose pose;
   HairState s = makeState(m, pose, Twist());
-  for (int i = 0; i < m.strand_offsets[m.followers.guide_strands]; ++i) {
+  for (int i = 0; i < static_cast<int>(m.strand_offsets[m.followers.guide_strands]); ++i) {
     Vec3 normal;
     m.head.distance(m.rest_position_head[i], &normal);
     s.position[i] = m.rest_position_head[i] - 0.03 * normal;

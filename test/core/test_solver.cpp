@@ -3,6 +3,7 @@
 // flutter inside the validated range (and flutter outside it), no energy from nowhere, repairs.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -675,4 +676,54 @@ TEST(Solver, HairRestingOnTheHeadRunsNoExtraConstraintRounds) {
   ASSERT_GT(contacts, 0u);  // the hair does lie on the head
   ASSERT_EQ(limited, 0u);   // within the strain limit throughout
   EXPECT_EQ(rounds, 0u);
+}
+
+TEST(Solver, CachedStiffnessFactorsEqualFreshOnes) {
+  // Eq. (13)'s factors are kept per particle between steps and reused while the saturation and
+  // the other inputs are the same: after a change of each input, a state that kept its cache
+  // steps to the same bits as a copy whose cache was emptied.
+  SolverConfig c;
+  c.integrator.threads = 1;
+  const Groom g = curlyGroom(4, 16);
+  const HairModel m = makeModel(g, c);
+  HairState kept = makeState(m, Pose(), Twist());
+  for (double& sigma : kept.saturation) sigma = 0.5;
+  const StepInputs inputs;
+  step(m, c, inputs, kFrame, &kept, nullptr);
+  enum Change { kSaturation, kWetFactor, kGlobalFactor, kDryFactor, kReference, kSubstep };
+  for (Change change : {kSaturation, kWetFactor, kGlobalFactor, kDryFactor, kReference, kSubstep}) {
+    switch (change) {
+      case kSaturation:
+        for (size_t i = 0; i < kept.saturation.size(); i += 3) kept.saturation[i] = 0.9;
+        break;
+      case kWetFactor:
+        c.stiffness.wet_factor = 0.999;
+        break;
+      case kGlobalFactor:
+        c.stiffness.global_factor = 0.9999;
+        break;
+      case kDryFactor:
+        c.stiffness.dry_factor = 0.99999;
+        break;
+      case kReference:
+        c.stiffness.reference_step_s = 2e-4;
+        break;
+      case kSubstep:
+        c.integrator.substep_s *= 0.5;
+        break;
+    }
+    HairState fresh = kept;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    std::fill(fresh.stiffness_factor.begin(), fresh.stiffness_factor.end(), nan);
+    std::fill(fresh.stiffness_factor_saturation.begin(), fresh.stiffness_factor_saturation.end(),
+              nan);
+    std::fill(fresh.stiffness_factor_key.begin(), fresh.stiffness_factor_key.end(),
+              StiffnessFactorKey());
+    step(m, c, inputs, kFrame, &kept, nullptr);
+    step(m, c, inputs, kFrame, &fresh, nullptr);
+    for (size_t i = 0; i < kept.position.size(); ++i) {
+      ASSERT_EQ(kept.position[i], fresh.position[i]) << "change " << change << ", particle " << i;
+      ASSERT_EQ(kept.velocity[i], fresh.velocity[i]) << "change " << change << ", particle " << i;
+    }
+  }
 }

@@ -153,6 +153,20 @@ struct WaterScratch {
   void resize(int particles, int max_strand_size);
 };
 
+/// The inputs of eq. (13)'s velocity factor other than the saturation (NaN: none).
+struct StiffnessFactorKey {
+  double global_factor = std::numeric_limits<double>::quiet_NaN();
+  double wet_factor = std::numeric_limits<double>::quiet_NaN();
+  double dry_factor = std::numeric_limits<double>::quiet_NaN();
+  double substep_s = std::numeric_limits<double>::quiet_NaN();
+  double reference_step_s = std::numeric_limits<double>::quiet_NaN();
+  bool operator==(const StiffnessFactorKey& o) const {
+    return global_factor == o.global_factor && wet_factor == o.wet_factor &&
+           dry_factor == o.dry_factor && substep_s == o.substep_s &&
+           reference_step_s == o.reference_step_s;
+  }
+};
+
 /// Mutable state. Allocated by makeState; step() never allocates.
 struct HairState {
   Vec3List position;               ///< world frame, m.
@@ -172,7 +186,12 @@ struct HairState {
   double display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
   Vec3List last_good_position;  ///< per particle, at the end of the last healthy step.
   Vec3List last_good_velocity;
-  Mat3List curl_rotation;       ///< per strand: the last well-defined M of eq. (7) (A8).
+  Mat3List curl_rotation;  ///< per strand: the last well-defined M of eq. (7) (A8).
+  /// Eq. (13)'s velocity factor as last computed, per particle, with the saturation it was
+  /// computed at (NaN: none yet), and per strand the rest of its inputs (StiffnessFactorKey):
+  /// reused while all of them are the same (an exp and a log per particle and step otherwise).
+  std::vector<double> stiffness_factor, stiffness_factor_saturation;
+  std::vector<StiffnessFactorKey> stiffness_factor_key;
   Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
   std::vector<double> density;  ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
   Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
