@@ -163,7 +163,9 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
 int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, HairState* state,
                            int threads) {
   const Vec3List& p = state->position;
-  std::copy(p.begin(), p.end(), state->wet_position.begin());
+  Vec3* wet_position = state->wet_position.data();
+  parallelFor(threads, Schedule::kStatic, 0, static_cast<int>(p.size()),
+              [&](int i) { wet_position[i] = p[i]; });
   if (c.mode != "ours" || c.tightness <= 0.0 || !anyWet(*state)) return 0;
   if (c.evaluation == "grid") {
     const int clumped = computeDisplayCohesionGrid(model, c, state, threads);

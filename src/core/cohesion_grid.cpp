@@ -618,12 +618,12 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
     zero(v, nodes, threads);
-  for (int j = 0; j < n; ++j) {
+  parallelFor(threads, Schedule::kStatic, 0, n, [&](int j) {
     g.wet_share[j] = g.volume[j] * state->saturation[j];
-    if (!single) continue;
+    if (!single) return;
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
-  }
+  });
   splat(L, g, n, threads, [&](int j, int64_t node, int64_t kx, int64_t ky, int64_t kz, double t) {
     g.scalar[node] += t * g.volume[j];
     const double vs = g.wet_share[j];
