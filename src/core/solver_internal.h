@@ -66,7 +66,8 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
                     const HairState& state);
 
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
-/// (the eq. 13 velocity factors).
+/// (the eq. 13 velocity factors), from the state's kept factors where their inputs are unchanged
+/// (HairState::stiffness_factor).
 void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
                        const StrandFlags& flags, double h, HairState* state,
                        StrandScratch* scratch);
