@@ -146,6 +146,22 @@ def scaling(out, sc, common):
                                                      fmt(f(r2, 10000)) if r2 else "-"))
 
 
+def builtin(out, b):
+    """The built-in scene exactly as shipped (the defaults, every hardware thread): its real-time
+    factor, the median of the runs and their range."""
+    if not b:
+        return
+    r = b[0]
+    out.append("\n## Built-in scene at the defaults\n")
+    out.append("| strands | integrator, substep | threads | lanes | cohesion | real-time factor "
+               "(median of %s runs of %s s) | range |" % (r["runs"], r["sim_s"]))
+    out.append("|---|---|---|---|---|---|---|")
+    out.append("| %s | %s, %s s | %s | %s | %s | %.2f | %.2f to %.2f |" % (
+        r["strands"], r["integrator"], r["substep_s"], r["threads"], r["lane_layout"],
+        r["cohesion"], float(r["realtime_factor"]), float(r["realtime_factor_min"]),
+        float(r["realtime_factor_max"])))
+
+
 def target(out, t):
     """The headline target scene measured on itself: cost and error per candidate setting, the
     error over the horizon where the reference converged (and over the whole run); first the
@@ -365,6 +381,8 @@ def main():
     out = ["# Benchmark summary\n", "Written by `bench/bench_summary.py` from the CSV files "
            "beside it (`scripts/bench`).\n"]
     common = {}
+    if os.path.exists(os.path.join(d, "builtin.csv")):
+        builtin(out, rows(os.path.join(d, "builtin.csv")))
     if os.path.exists(os.path.join(d, "work_precision.csv")):
         common = work_precision(out, rows(os.path.join(d, "work_precision.csv")))
         write_defaults(d, common)

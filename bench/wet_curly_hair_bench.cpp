@@ -1,8 +1,10 @@
 // wet_curly_hair_bench: speed against error (docs/performance.md).
 //
-// For each benchmark scene, runs every solver setting (integrator x substep) and a reference (the
-// explicit integrator at a substep 16 times smaller than the smallest benchmarked, checked against
-// one 32 times smaller), and writes per setting: wall seconds per simulated second (median of
+// First the built-in scene exactly as shipped (the defaults, every hardware thread): its
+// real-time factor (builtin.csv). Then, for each benchmark scene, runs every solver setting
+// (integrator x substep) and a reference (the explicit integrator at a substep 16 times smaller
+// than the smallest benchmarked, checked against one 32 times smaller), and writes per setting:
+// wall seconds per simulated second (median of
 // --repeats runs, solver step only), RMS and max particle error against the reference over the
 // output frames divided by the mean strand length, whether the run stayed stable, and how far the
 // distributions of tip height, tip curl radius and clump distance, pooled over every output frame
@@ -71,8 +73,9 @@ struct Options {
   bool work_precision = true;
   bool gating = true;
   bool cohesion = true;
-  bool target = true;  ///< the headline target scene: 1,000 strands, full wet model, obstacle
-  bool lanes = true;   ///< float or double: the target scene's dynamics in every lane layout
+  bool target = true;   ///< the headline target scene: 1,000 strands, full wet model, obstacle
+  bool lanes = true;    ///< float or double: the target scene's dynamics in every lane layout
+  bool builtin = true;  ///< the built-in scene exactly as shipped: its real-time factor
   std::vector<std::string> only_scenes;
   std::vector<std::string> only_series;  ///< scaling: only these Setting::label()s
   bool replot = false;  ///< only redraw the charts from the CSV files already in `out`
@@ -404,7 +407,8 @@ const char* kUsage =
     "                            [--scaling-series "
     "explicit|backward_euler|theta|theta_per_strand]...\n"
     "                            [--no-work-precision] [--no-gating]\n"
-    "                            [--no-cohesion] [--no-target] [--no-lanes] [--replot]\n";
+    "                            [--no-cohesion] [--no-target] [--no-lanes] [--no-builtin]\n"
+    "                            [--replot]\n";
 
 /// The speed-against-error chart: every benchmark scene x setting against a converged reference.
 /// Returns 2 when a run fails, 0 otherwise; *all_ok turns false when a file cannot be written.
@@ -932,6 +936,47 @@ int benchTargetAndLanes(const Options& opt, bool* all_ok) {
   return 0;
 }
 
+/// The built-in scene exactly as shipped (io::builtinScene: the defaults, every hardware thread),
+/// 2 s, --repeats runs (at least 3): its real-time factor, the package's first target (RTF >= 3 on
+/// a 2-core machine). Returns 2 when a run fails, 0 otherwise; *all_ok turns false when the file
+/// cannot be written.
+int benchBuiltin(const Options& opt, bool* all_ok) {
+  io::SceneConfig scene = io::builtinScene();
+  scene.run.seconds = opt.quick ? 0.2 : 2.0;
+  const int runs = opt.quick ? 1 : std::max(3, opt.repeats);
+  io::RunOptions options;
+  options.measure = false;
+  options.tangles = false;
+  options.clump_distance = false;
+  options.stage_timing = false;  // clock reads cost
+  std::vector<double> rtf;
+  io::RunSummary summary;
+  for (int r = 0; r < runs; ++r) {
+    std::string why;
+    if (!io::runScene(scene, options, &summary, &why)) {
+      std::fprintf(stderr, "wet_curly_hair_bench: builtin: %s\n", why.c_str());
+      return 2;
+    }
+    rtf.push_back(summary.wall_s > 0.0 ? summary.sim_s / summary.wall_s : 0.0);
+  }
+  const auto [lo, hi] = std::minmax_element(rtf.begin(), rtf.end());
+  std::ostringstream csv;
+  csv << "scene,strands,particles,integrator,substep_s,threads,lane_layout,cohesion,sim_s,runs,"
+         "realtime_factor,realtime_factor_min,realtime_factor_max\n";
+  csv << "builtin," << summary.strands << "," << summary.particles << "," << summary.integrator
+      << "," << fmt(summary.substep_s) << "," << summary.threads << "," << summary.lane_layout
+      << "," << summary.cohesion << "," << fmt(scene.run.seconds) << "," << runs << ","
+      << fmt(median(rtf)) << "," << fmt(*lo) << "," << fmt(*hi) << "\n";
+  std::printf(
+      "builtin %d strands, %s %.3g s, %d threads, %s lanes, cohesion %s: real-time factor %.2f "
+      "(median of %d runs of %.3g s; %.2f to %.2f)\n",
+      summary.strands, summary.integrator.c_str(), summary.substep_s, summary.threads,
+      summary.lane_layout.c_str(), summary.cohesion.c_str(), median(rtf), runs, scene.run.seconds,
+      *lo, *hi);
+  *all_ok = writeFile(opt.out + "/builtin.csv", csv.str()) && *all_ok;
+  return 0;
+}
+
 /// "Model only what the scene needs": dry against wet, obstacle out of reach.
 /// Returns 2 when a run fails, 0 otherwise; *all_ok turns false when a file cannot be written.
 int benchGating(const Options& opt, bool* all_ok) {
@@ -1048,6 +1093,8 @@ int main(int argc, char** argv) {
       opt.target = false;
     else if (a == "--no-lanes")
       opt.lanes = false;
+    else if (a == "--no-builtin")
+      opt.builtin = false;
     else if (a == "--replot")
       opt.replot = true;
     else {
@@ -1082,6 +1129,7 @@ int main(int argc, char** argv) {
   }
   mkdir(opt.out.c_str(), 0755);
   bool all_ok = true;
+  if (opt.builtin && benchBuiltin(opt, &all_ok) != 0) return 2;
   if (opt.work_precision && benchWorkPrecision(opt, &all_ok) != 0) return 2;
   if (opt.scaling && benchScaling(opt, &all_ok) != 0) return 2;
   if (opt.cohesion && benchCohesion(opt, &all_ok) != 0) return 2;

@@ -19,6 +19,14 @@ bench_rc=$?
 check "runs and exits 0 (got $bench_rc; stderr: $(head -c 300 "$out/stderr"))" "[ $bench_rc -eq 0 ]"
 check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv" \
   "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 3 ]"
+# The built-in scene as shipped: one row with the defaults' integrator and a real-time factor.
+check "builtin.csv: the shipped scene at the defaults, a positive real-time factor" "/usr/bin/python3 - <<PY
+import csv, sys
+rows = list(csv.DictReader(open('$out/b/builtin.csv')))
+ok = len(rows) == 1 and rows[0]['scene'] == 'builtin' and rows[0]['integrator'] in ('explicit', 'backward_euler', 'theta', 'midpoint')
+ok = ok and rows[0]['strands'] == '200' and float(rows[0]['realtime_factor']) > 0
+sys.exit(0 if ok else 1)
+PY"
 # Every quick setting of every scene: finite cost and error, stable, and the reference converged
 # far below the errors it measures.
 check "work-precision rows complete, stable, errors finite and positive" "/usr/bin/python3 - <<PY
@@ -77,7 +85,7 @@ check "draws the charts" "[ -s $out/b/work_precision.png ] && [ -s $out/b/scalin
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 /usr/bin/python3 "$here/bench/bench_summary.py" "$out/b" > /dev/null 2> "$out/summary_err"
 check "bench_summary.py writes the budget, scaling and gating tables ($(head -c 300 "$out/summary_err"))" \
-  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^Shape distributions over the whole run' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md"
+  "grep -q 'RMS error at most 1 %' $out/b/summary.md && grep -q '^## Scaling' $out/b/summary.md && grep -q '| theta | wet |' $out/b/summary.md && grep -q '^## Target scene' $out/b/summary.md && grep -q '^Shape distributions over the whole run' $out/b/summary.md && grep -q '^## Float or double' $out/b/summary.md && grep -q '^## Built-in scene at the defaults' $out/b/summary.md"
 rm -f "$out/b/scaling.png"
 "$bench" --replot --out "$out/b" > /dev/null 2>&1
 check "--replot redraws the charts from the CSV files" "[ -s $out/b/scaling.png ]"
