@@ -24,18 +24,16 @@ WCH_INLINE Vec3 anyPerpendicular(const Vec3& a) {
 /// (physics.md §10.5); loses all precision as the two become opposite (minimalRotation).
 template <typename S>
 WCH_INLINE M33<S> rodrigues(const V3<S>& from, const V3<S>& to, const S& c) {
+  // [v]_x^2 = v v^T - |v|^2 I, scaled by one reciprocal: this runs for every edge of every
+  // strand on every substep, where a matrix product and nine divisions cost more than the rest.
   const V3<S> v = cross(from, to);
-  const S zero = splat<S>(0.0);
-  M33<S> vx;
-  vx.m[0][0] = zero, vx.m[0][1] = -v.z, vx.m[0][2] = v.y;
-  vx.m[1][0] = v.z, vx.m[1][1] = zero, vx.m[1][2] = -v.x;
-  vx.m[2][0] = -v.y, vx.m[2][1] = v.x, vx.m[2][2] = zero;
-  const M33<S> vx2 = vx * vx;
-  const S s = splat<S>(1.0) + c;
+  const S inv_s = splat<S>(1.0) / (splat<S>(1.0) + c);
+  const V3<S> w = inv_s * v;
+  const S diagonal = splat<S>(1.0) - dot(v, w);
   M33<S> r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r.m[i][j] = vx.m[i][j] + vx2.m[i][j] / s;
-  for (int i = 0; i < 3; ++i) r.m[i][i] = splat<S>(1.0) + r.m[i][i];
+  r.m[0][0] = diagonal + v.x * w.x, r.m[0][1] = v.x * w.y - v.z, r.m[0][2] = v.x * w.z + v.y;
+  r.m[1][0] = v.y * w.x + v.z, r.m[1][1] = diagonal + v.y * w.y, r.m[1][2] = v.y * w.z - v.x;
+  r.m[2][0] = v.z * w.x - v.y, r.m[2][1] = v.z * w.y + v.x, r.m[2][2] = diagonal + v.z * w.z;
   return r;
 }
 
@@ -101,7 +99,7 @@ template <typename S>
 WCH_INLINE void transportFrame(const V3<S>& d_before, int i, M33<S>* frame, V3<S>* tangent) {
   const S len = vsqrt(dot(d_before, d_before));
   const auto keep = len < splat<S>(kDirectionEpsilon);
-  const V3<S> t = d_before / len;
+  const V3<S> t = (splat<S>(1.0) / len) * d_before;
   M33<S> next = minimalRotation(*tangent, t) * *frame;
   // Round-off drift is removed every 16 edges; in double it stays below 1e-14 in between.
   if ((i & 15) == 0) next = orthonormalize(next);

@@ -37,15 +37,17 @@ WCH_INLINE double ellipsoidCentreDistance(const EllipsoidShape& e, Vec3* normal)
 /// gradient direction is the exact surface normal direction x/r^2 of the level set through x.
 template <typename S>
 WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<S>* normal) {
+  // Products with the inverse radii and one reciprocal of k1: divisions are the costly lane
+  // operation here, and this runs for every particle on every substep.
   const V3<S> x = x_head - splat3<S>(e.center_m);
-  const V3<S> r = splat3<S>(e.radii_m);
-  const V3<S> q = {x.x / r.x, x.y / r.y, x.z / r.z};
-  const V3<S> g = {q.x / r.x, q.y / r.y, q.z / r.z};
+  const V3<S> inv_r = splat3<S>(e.radii_m.cwiseInverse());
+  const V3<S> q = {x.x * inv_r.x, x.y * inv_r.y, x.z * inv_r.z};
+  const V3<S> g = {q.x * inv_r.x, q.y * inv_r.y, q.z * inv_r.z};
   const S k0 = vsqrt(dot(q, q));
-  const S k1 = vsqrt(dot(g, g));
-  *normal = g / k1;
-  S dist = k0 * (k0 - splat<S>(1.0)) / k1;
-  patchLanes(k1 < splat<S>(1e-12), [&](int l) {
+  const S inv_k1 = splat<S>(1.0) / vsqrt(dot(g, g));
+  *normal = inv_k1 * g;
+  S dist = k0 * (k0 - splat<S>(1.0)) * inv_k1;
+  patchLanes(inv_k1 > splat<S>(1e12), [&](int l) {
     Vec3 n;
     setLaneValue(&dist, l, ellipsoidCentreDistance(e, &n));
     setLane(normal, l, n);
@@ -74,10 +76,10 @@ WCH_INLINE S capsuleDistance(const CapsuleShape& c, const V3<S>& x, V3<S>* norma
   const V3<S> a = splat3<S>(c.a_m);
   S s = splat<S>(0.0);
   if (len2 > 0.0)
-    s = vmin(vmax(dot(x - a, splat3<S>(ab)) / splat<S>(len2), splat<S>(0.0)), splat<S>(1.0));
+    s = vmin(vmax(dot(x - a, splat3<S>(ab)) * splat<S>(1.0 / len2), splat<S>(0.0)), splat<S>(1.0));
   const V3<S> d = x - (a + s * splat3<S>(ab));
   const S len = vsqrt(dot(d, d));
-  *normal = d / len;
+  *normal = (splat<S>(1.0) / len) * d;
   S dist = len - splat<S>(c.radius_m);
   patchLanes(len < splat<S>(1e-12), [&](int l) {
     Vec3 n;
