@@ -13,14 +13,16 @@ namespace wet_curly_hair {
 double AnalyticObstacle::distance(const Vec3& x, Vec3* n) const {
   switch (shape) {
     case Shape::kSphere: {
-      const Vec3 d = x - center_m;
-      const double r = d.norm();
-      *n = r > 1e-12 ? Vec3(d / r) : Vec3::UnitZ();
-      return r - radius_m;
+      V3<double> nv;
+      const double d = sphereDistance(toV3(center_m), radius_m, toV3(x), &nv);
+      *n = toEigen(nv);
+      return d;
     }
     case Shape::kPlane: {
-      *n = normal;
-      return normal.dot(x - center_m);
+      V3<double> nv;
+      const double d = planeDistance(toV3(center_m), toV3(normal), toV3(x), &nv);
+      *n = toEigen(nv);
+      return d;
     }
     case Shape::kBox: {
       // Exact box distance in the box frame, normal back in the world.
@@ -131,26 +133,10 @@ bool AnalyticObstacle::parse(const std::string& spec, AnalyticObstacle* out, std
 }
 
 double Obstacles::distance(const Vec3& x, Vec3* n) const {
-  double best = std::numeric_limits<double>::infinity();
-  *n = Vec3::UnitZ();
-  for (const AnalyticObstacle& o : analytic) {
-    Vec3 on;
-    const double d = o.distance(x, &on);
-    if (d < best) {
-      best = d;
-      *n = on;
-    }
-  }
-  if (field.sdf) {
-    const Vec3 local = field.field_in_world.applyInverse(x);
-    Vec3 g;
-    const double d = field.sdf->distanceAndGradient(local, &g);
-    if (d < best) {
-      best = d;
-      *n = field.field_in_world.rotate(g);
-    }
-  }
-  return best;
+  V3<double> nv;
+  const double d = distance(toV3(x), Vec3::Zero(), true, &nv);
+  *n = toEigen(nv);
+  return d;
 }
 
 }  // namespace wet_curly_hair

@@ -393,38 +393,41 @@ WCH_INLINE LaneMask<S> obstacleDistanceNeeded(const V3<S>& x, const V3<S>& ancho
   return !((slack > splat<S>(0.0)) && (splat<S>(4.0) * dot(dx, dx) < slack * slack));
 }
 
-/// The obstacle field's distance at particle i of lane l, remembered for the cache above.
+/// The obstacles' distance at particle i on the lanes of `lanes`, remembered there for the cache
+/// above.
 template <typename S>
-double obstacleDistance(Block<S>& blk, int i, int l, Vec3* normal) {
-  const Vec3 x = lane(blk.a.p[i], l);
-  const double dist = blk.inputs.obstacles->distance(x + blk.origin, normal);
-  setLane(&blk.a.obstacle_anchor[i], l, x);
-  setLaneValue(&blk.a.obstacle_slack[i], l, dist - blk.obstacle_reach);
+S obstacleDistance(Block<S>& blk, int i, const LaneMask<S>& lanes, V3<S>* normal) {
+  BlockArrays<S>& a = blk.a;
+  const S dist = blk.inputs.obstacles->distance(a.p[i], blk.origin, lanes, normal);
+  a.obstacle_anchor[i] = select(lanes, a.p[i], a.obstacle_anchor[i]);
+  a.obstacle_slack[i] = select(lanes, dist - splat<S>(blk.obstacle_reach), a.obstacle_slack[i]);
   return dist;
 }
 
 /// Adhesion, eqs. (11)-(12) (A15-A16): wet particles between h/2 and h from an obstacle surface
-/// are pulled toward it, with peak acceleration sigma * peak at 3h/4. Reads the obstacle field
-/// lane by lane. Returns the particles evaluated.
+/// are pulled toward it, with peak acceleration sigma * peak at 3h/4. Returns the particles
+/// evaluated.
 template <typename S>
 uint64_t adhesionForces(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
   const AdhesionConfig& ad = blk.config.adhesion;
-  const double scale =
-      ad.peak_acceleration_m_s2 / adhesionKernelPeak(ad.radius_m, ad.literal_polynomial);
+  const S scale =
+      splat<S>(ad.peak_acceleration_m_s2 / adhesionKernelPeak(ad.radius_m, ad.literal_polynomial));
+  const LaneMask<S> on = maskFromBools<LaneMask<S>>(blk.adhesion_on);
   uint64_t evaluated = 0;
   for (int i = 1; i < blk.n; ++i) {
-    const auto needed = obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+    const LaneMask<S> needed =
+        on && (a.sigma[i] > splat<S>(0.0)) &&
+        obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+    if (!anyLane(needed)) continue;
+    V3<S> normal;
+    const S dist = obstacleDistance(blk, i, needed, &normal);
+    const S ak = adhesionKernel(dist, ad.radius_m, ad.literal_polynomial);
+    const LaneMask<S> pulled = needed && (ak > splat<S>(0.0));
+    a.f[i] -= select(pulled, (a.sigma[i] * a.m[i] * scale * ak) * normal, zero3<S>());
     for (int l = 0; l < Block<S>::kWidth; ++l) {
-      const double sigma = laneValue(a.sigma[i], l);
-      if (!blk.adhesion_on[l] || sigma <= 0.0 || !maskLane(needed, l)) continue;
-      ++evaluated;
-      Vec3 normal;
-      const double dist = obstacleDistance(blk, i, l, &normal);
-      const double ak = adhesionKernel(dist, ad.radius_m, ad.literal_polynomial);
-      if (ak <= 0.0) continue;
-      setLane(&a.f[i], l, lane(a.f[i], l) - (sigma * laneValue(a.m[i], l) * scale * ak) * normal);
-      ++blk.stats->adhesion_active;
+      evaluated += maskLane(needed, l);
+      blk.stats->adhesion_active += maskLane(pulled, l);
     }
   }
   blk.stats->adhesion_particle_substeps += evaluated;
@@ -684,29 +687,30 @@ void collideHeadParticles(const HairModel& model, const CollisionConfig& config,
   }
 }
 
-/// The same against the (static, world-frame) external obstacles, read lane by lane where the
-/// distance cache cannot rule a contact out (no cache: every particle). Returns the particles
-/// evaluated; adds contacts to touched[lane] for the lanes in `on`.
+/// The same against the (static, world-frame) external obstacles, on the lanes of `on` where the
+/// distance cache cannot rule a contact out (no cache: every particle); distance(i, lanes,
+/// &normal) reads the obstacles at particle i. Returns the particles evaluated; adds contacts to
+/// touched[lane].
 template <typename S, typename DistanceFn>
 uint64_t collideObstacleParticles(const ObstacleCollisionConfig& config, const bool* on,
                                   DistanceFn&& distance, const V3<S>* anchor, const S* slack,
                                   V3<S>* p, V3<S>* v, int n, uint64_t* touched) {
+  const LaneMask<S> on_mask = maskFromBools<LaneMask<S>>(on);
+  const S offset = splat<S>(config.offset_m);
   uint64_t evaluated = 0;
   for (int i = 1; i < n; ++i) {
-    LaneMask<S> needed = maskFromBools<LaneMask<S>>(on);
+    LaneMask<S> needed = on_mask;
     if (anchor) needed = needed && obstacleDistanceNeeded(p[i], anchor[i], slack[i]);
+    if (!anyLane(needed)) continue;
+    V3<S> normal;
+    const S dist = distance(i, needed, &normal);
+    const LaneMask<S> contact = needed && (dist < offset);
     for (int l = 0; l < kLaneWidth<S>; ++l) {
-      if (!on[l] || !maskLane(needed, l)) continue;
-      ++evaluated;
-      Vec3 normal;
-      const double dist = distance(i, l, &normal);
-      Vec3 x = lane(p[i], l), vel = lane(v[i], l);
-      if (!collideParticle(dist, normal, config.offset_m, config.friction, Vec3::Zero(), &x, &vel))
-        continue;
-      setLane(&p[i], l, x);
-      setLane(&v[i], l, vel);
-      ++touched[l];
+      evaluated += maskLane(needed, l);
+      touched[l] += maskLane(contact, l);
     }
+    if (anyLane(contact))
+      collideParticle(contact, dist, normal, offset, config.friction, zero3<S>(), &p[i], &v[i]);
   }
   return evaluated;
 }
@@ -754,8 +758,8 @@ uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l
     a.p_one[i] = toV3(lane(a.p[i], l)), a.v_one[i] = toV3(lane(a.v[i], l));
   const double* rest = &blk.model.rest_edge_m[blk.begin[l]];
   const bool obstacles = blk.obstacle_on[l] && config.obstacle.enabled;
-  auto distance = [&](int i, int, Vec3* normal) {
-    return blk.inputs.obstacles->distance(toEigen(a.p_one[i]) + blk.origin, normal);
+  auto distance = [&](int i, bool lanes, V3<double>* normal) {
+    return blk.inputs.obstacles->distance(a.p_one[i], blk.origin, lanes, normal);
   };
   uint64_t rounds = 0;
   for (int round = 0; touched > 0 && projected > 0 && round < config.collision.constraint_rounds;
@@ -799,7 +803,9 @@ void collideAndLimit(Block<S>& blk, const SubstepMotion& motion, StageLaps& laps
     for (int l = 0; l < Block<S>::kWidth; ++l)
       on[l] = blk.obstacle_on[l] && config.obstacle.enabled;
     uint64_t obstacle_touched[Block<S>::kWidth] = {};
-    auto distance = [&](int i, int l, Vec3* normal) { return obstacleDistance(blk, i, l, normal); };
+    auto distance = [&](int i, const LaneMask<S>& lanes, V3<S>* normal) {
+      return obstacleDistance(blk, i, lanes, normal);
+    };
     const uint64_t evaluated =
         collideObstacleParticles<S>(config.obstacle, on, distance, a.obstacle_anchor,
                                     a.obstacle_slack, a.p, a.v, n, obstacle_touched);

@@ -97,6 +97,32 @@ TEST(Adhesion, KernelZeroOutsideItsBandFiniteEverywherePeakAtThreeQuarters) {
   EXPECT_NEAR(adhesionKernelPeak(0.01, false), 0.007 / std::sqrt(2.0) * 1e6, 1e-6);
 }
 
+TEST(Adhesion, KernelOnLanesIsTheScalarKernel) {
+  // The solver reads the kernel on lanes (float16 or double4) at 16 or 4 distances at once. Float
+  // holds the polynomial to ~1e-7 of h; its fourth root is steep where the polynomial vanishes
+  // (r -> h/2, h), so the bound there is the root of that, ~1e-2 of the peak within 1e-4 h.
+  const double h = 0.01;
+  for (bool literal : {false, true}) {
+    const double peak = adhesionKernelPeak(h, literal);
+    // Distances on a 2^-17 m grid from -1e-4 to 1.2e-2 m: the same value in float and double.
+    for (int k = -16; k < 1584; k += 16) {
+      float r[16];
+      LaneFloat16 r16;
+      LaneDouble4 r4;
+      for (int l = 0; l < 16; ++l) r[l] = std::ldexp(float(k + l), -17), r16[l] = r[l];
+      for (int l = 0; l < 4; ++l) r4[l] = r[l];
+      const LaneFloat16 a16 = adhesionKernel(r16, h, literal);
+      const LaneDouble4 a4 = adhesionKernel(r4, h, literal);
+      for (int l = 0; l < 16; ++l) {
+        const double expected = adhesionKernel(double(r[l]), h, literal);
+        const bool steep = std::abs(r[l] - 0.5 * h) < 1e-4 * h || std::abs(r[l] - h) < 1e-4 * h;
+        EXPECT_NEAR(a16[l], expected, (steep ? 1e-2 : 1e-5) * peak) << r[l];
+        if (l < 4) EXPECT_NEAR(a4[l], expected, 1e-12 * peak) << r[l];
+      }
+    }
+  }
+}
+
 TEST(Stiffness, DecayPerSecondIsTheSameAtTwoSubsteps) {
   // (xi zeta)^(h / h_ref) applied 1/h times per second: the same decay whatever h (A17).
   for (double sigma : {0.0, 0.5, 1.0}) {

@@ -59,11 +59,18 @@ WCH_INLINE Vec3 curlForce(const Vec3& rotated_helix_edge, const Vec3& edge, doub
 /// Eq. (12) with Akinci's 1/4 power and domain (A15): A(r) = 0.007 h^-3.25
 /// (-4 r^2 / h + 6 r - 2 h)^(1/4) for h/2 < r <= h, else 0. `literal`: the paper's polynomial
 /// without the power, same domain. Finite for every input; peaks at r = 3h/4.
+template <typename S>
+WCH_INLINE S adhesionKernel(const S& r, double h, bool literal) {
+  if (!(h > 0.0)) return splat<S>(0.0);
+  const auto in_domain = (r > splat<S>(0.5 * h)) && (r <= splat<S>(h));
+  const S poly =
+      vmax(splat<S>(0.0), (splat<S>(-4.0 / h) * r + splat<S>(6.0)) * r - splat<S>(2.0 * h));
+  const S k = splat<S>(0.007 / std::pow(h, 3.25));
+  const S value = literal ? k * poly : k * vsqrt(vsqrt(poly));  // poly^(1/4)
+  return select(in_domain, value, splat<S>(0.0));
+}
 WCH_INLINE double adhesionKernel(double r, double h, bool literal) {
-  if (!(h > 0.0) || !(r > 0.5 * h) || !(r <= h)) return 0.0;
-  const double poly = std::max(0.0, -4.0 * r * r / h + 6.0 * r - 2.0 * h);
-  const double k = 0.007 / std::pow(h, 3.25);
-  return literal ? k * poly : k * std::pow(poly, 0.25);
+  return adhesionKernel<double>(r, h, literal);
 }
 
 /// Peak value of adhesionKernel, at r = 3h/4 where the polynomial equals h/4.
