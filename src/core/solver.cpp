@@ -105,23 +105,6 @@ double curlFollowFraction(const CurlConfig& config, double h) {
   return tc > 0.0 ? 1.0 - std::exp(-h / tc) : 1.0;
 }
 
-void updateCurlRotation(const HairModel& model, int strand, const Vec3& root, const Vec3& tip,
-                        double follow_fraction, HairState* state) {
-  const Vec3 axis = tip - root;
-  const double len = axis.norm();
-  // A8: when the strand curls back onto its root the axis is undefined: keep the last M.
-  if (!(len > 1e-3 * model.strand_length_m[strand])) return;
-  const Vec3& helix_axis = model.helix_axis[strand];
-  const Vec3 hair_axis = axis / len;
-  if (follow_fraction >= 1.0) {
-    state->curl_rotation[strand] = helixToHairRotation(helix_axis, hair_axis);
-  } else {
-    const Quat from(state->curl_rotation[strand]);
-    const Quat to = helixToHairQuaternion(helix_axis, hair_axis);
-    state->curl_rotation[strand] = from.slerp(follow_fraction, to).normalized().toRotationMatrix();
-  }
-}
-
 int blockStrands(const HairModel& model, int first_strand, int width) {
   const int count = std::min(width, model.simulatedStrandCount() - first_strand);
   if (count < 1) return 0;
@@ -270,7 +253,7 @@ StepInputs carryHairThroughHeadJump(const HairModel& model, const SolverConfig& 
     state->last_good_velocity[i] = jump.rotation * state->last_good_velocity[i];
   }
   for (int s = 0; s < model.strandCount(); ++s)
-    state->curl_rotation[s] = jump.rotation.toRotationMatrix() * state->curl_rotation[s];
+    state->curl_rotation[s] = (jump.rotation * state->curl_rotation[s]).normalized();
   StepInputs carried = inputs;
   carried.head_start = inputs.head_end;
   stats->head_jumps = 1;

@@ -76,11 +76,15 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, int s
 /// tau = CurlConfig::rotation_time_constant_s, 1 (at once) for tau = 0.
 double curlFollowFraction(const CurlConfig& config, double h);
 
-/// Eqs. (7)-(8), A8: moves strand's curl rotation M toward the one taking its helix axis onto the
-/// root-to-tip direction by follow_fraction (curlFollowFraction; a slerp, at once for 1); kept
-/// when the strand curls back onto its root.
-void updateCurlRotation(const HairModel& model, int strand, const Vec3& root, const Vec3& tip,
-                        double follow_fraction, HairState* state);
+/// Strands whose curl rotations updateCurlRotations takes at once.
+constexpr int kCurlFilterWidth = 16;
+
+/// Eqs. (7)-(8), A8, for strand[l] of the lanes l < count (at most kCurlFilterWidth) with
+/// update[l]: moves the strand's curl rotation M toward the one taking its helix axis onto the
+/// root-to-tip vector by follow_fraction (curlFollowFraction; a slerp, at once for 1); kept when
+/// the strand curls back onto its root (curl_filter.cpp).
+void updateCurlRotations(const HairModel& model, const int* strand, const Vec3* root_to_tip,
+                         const bool* update, int count, double follow_fraction, HairState* state);
 
 SubstepMotion substepMotion(const StepInputs& inputs, double s0, double s1, double h);
 

@@ -5,6 +5,7 @@
 
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/frames.h"
+#include "wet_curly_hair/core/wet_kernels.h"
 
 namespace wet_curly_hair {
 
@@ -79,8 +80,8 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
     const int begin = model.strandBegin(s);
     const Vec3 axis = state->position[begin + model.strandSize(s) - 1] - state->position[begin];
     state->curl_rotation[s] = axis.norm() > 1e-12
-                                  ? minimalRotation(model.helix_axis[s], axis.normalized())
-                                  : Mat3::Identity();
+                                  ? helixToHairQuaternion(model.helix_axis[s], axis.normalized())
+                                  : Quat::Identity();
   }
   state->last_good_position = state->position;
   state->last_good_velocity = state->velocity;
@@ -99,7 +100,7 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
   state.water_scratch.resize(n, model.max_strand_size);
   state.wet_position.assign(n, Vec3::Zero());
   state.display_offset.assign(n, Vec3::Zero());
-  state.curl_rotation.assign(model.strandCount(), Mat3::Identity());
+  state.curl_rotation.assign(model.strandCount(), Quat::Identity());
   state.stiffness_factor.assign(n, 1.0);
   state.stiffness_factor_saturation.assign(n, std::numeric_limits<double>::quiet_NaN());
   state.stiffness_factor_key.assign(model.strandCount(), StiffnessFactorKey());

@@ -356,14 +356,17 @@ template <typename S>
 uint64_t curlForces(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
   M33<S> rot = splat33<S>(Mat3::Identity());
-  const double follow = curlFollowFraction(blk.config.curl, blk.h);
+  Vec3 root_to_tip[Block<S>::kWidth];
+  bool update[Block<S>::kWidth];
   for (int l = 0; l < Block<S>::kWidth; ++l) {
-    if (!blk.curl_on[l]) continue;
-    if (blk.realLane(l))
-      updateCurlRotation(blk.model, blk.strand[l], lane(a.p[0], l), lane(a.p[blk.n - 1], l), follow,
-                         blk.state);
-    setLane(&rot, l, blk.state->curl_rotation[blk.strand[l]]);
+    update[l] = blk.curl_on[l] && blk.realLane(l);
+    root_to_tip[l] = lane(a.p[blk.n - 1], l) - lane(a.p[0], l);
   }
+  updateCurlRotations(blk.model, blk.strand, root_to_tip, update, Block<S>::kWidth,
+                      curlFollowFraction(blk.config.curl, blk.h), blk.state);
+  for (int l = 0; l < Block<S>::kWidth; ++l)
+    if (blk.curl_on[l])
+      setLane(&rot, l, blk.state->curl_rotation[blk.strand[l]].toRotationMatrix());
   const S w = blk.curl_weight;
   for (int i = 0; i < blk.edges; ++i) {
     const S s = splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);

@@ -51,10 +51,10 @@ TEST(SolverClaims, CurlRotationFollowsTheAxisWithItsTimeConstant) {
       const HairModel m = makeModel(smallGroom(8), c);
       HairState s = makeState(m, Pose(), Twist());
       s.saturation.assign(s.saturation.size(), 1.0);
-      const Mat3 target = s.curl_rotation[3];
+      const Mat3 target = s.curl_rotation[3].toRotationMatrix();
       const Mat3 start =
           Eigen::AngleAxisd(1.0, Vec3(1, 2, 3).normalized()).toRotationMatrix() * target;
-      s.curl_rotation[3] = start;
+      s.curl_rotation[3] = Quat(start);
       double t = 0.0;
       for (int f = 0; f < 12; ++f) {
         StepStats stats;
@@ -62,7 +62,7 @@ TEST(SolverClaims, CurlRotationFollowsTheAxisWithItsTimeConstant) {
         t += kFrame;
         ASSERT_GT(stats.curl_particle_substeps, 0u);
         const double expected = tc > 0.0 ? std::exp(-t / tc) : 0.0;
-        EXPECT_NEAR(angleBetween(s.curl_rotation[3], target), expected, 2e-3)
+        EXPECT_NEAR(angleBetween(s.curl_rotation[3].toRotationMatrix(), target), expected, 2e-3)
             << "lanes " << lanes << ", tc " << tc << ", t " << t;
       }
     }

@@ -186,7 +186,9 @@ struct HairState {
   double display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
   Vec3List last_good_position;  ///< per particle, at the end of the last healthy step.
   Vec3List last_good_velocity;
-  Mat3List curl_rotation;  ///< per strand: the last well-defined M of eq. (7) (A8).
+  /// Per strand: the last well-defined M of eq. (7) (A8), a unit quaternion (the filter of
+  /// CurlConfig::rotation_time_constant_s slerps it).
+  std::vector<Quat> curl_rotation;
   /// Eq. (13)'s velocity factor as last computed, per particle, with the saturation it was
   /// computed at (NaN: none yet), and per strand the rest of its inputs (StiffnessFactorKey):
   /// reused while all of them are the same (an exp and a log per particle and step otherwise).
