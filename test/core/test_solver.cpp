@@ -447,26 +447,32 @@ TEST(Solver, BendForceIsNotAnEnergyGradient) {
 }
 
 TEST(Solver, NonFiniteStrandIsRepairedAndCountedAlone) {
-  SolverConfig c;
-  const HairModel m = makeModel(curlyGroom(3), c);
-  HairState s = makeState(m, Pose(), Twist());
-  HairState reference = makeState(m, Pose(), Twist());
-  StepInputs in;
-  StepStats stats;
-  step(m, c, in, kFrame, &s, &stats);
-  step(m, c, in, kFrame, &reference, &stats);
-  s.velocity[m.strandBegin(1) + 5] = Vec3(std::nan(""), 0, 0);
-  StepStats repaired;
-  step(m, c, in, kFrame, &s, &repaired);
-  step(m, c, in, kFrame, &reference, &stats);
-  EXPECT_EQ(repaired.repaired_strands, 1u);
-  EXPECT_EQ(s.warnings.nonfinite_repairs, 1u);
-  EXPECT_GT(s.warnings.nonfinite_values, 0u);
-  for (const Vec3& p : s.position) EXPECT_TRUE(p.allFinite());
-  // The other strands never notice.
-  for (int st : {0, 2})
-    for (int i = m.strandBegin(st); i < m.strandBegin(st) + m.strandSize(st); ++i)
-      EXPECT_EQ(s.position[i], reference.position[i]);
+  // Two broken strands, on different threads when there are two (the check runs on every
+  // thread and counts per thread): both repaired and counted, the others untouched.
+  for (int threads : {1, 2}) {
+    SolverConfig c;
+    c.integrator.threads = threads;
+    const HairModel m = makeModel(curlyGroom(4), c);
+    HairState s = makeState(m, Pose(), Twist());
+    HairState reference = makeState(m, Pose(), Twist());
+    StepInputs in;
+    StepStats stats;
+    step(m, c, in, kFrame, &s, &stats);
+    step(m, c, in, kFrame, &reference, &stats);
+    s.velocity[m.strandBegin(1) + 5] = Vec3(std::nan(""), 0, 0);
+    s.position[m.strandBegin(3) + 2] = Vec3(0, std::numeric_limits<double>::infinity(), 0);
+    StepStats repaired;
+    step(m, c, in, kFrame, &s, &repaired);
+    step(m, c, in, kFrame, &reference, &stats);
+    EXPECT_EQ(repaired.repaired_strands, 2u) << threads;
+    EXPECT_EQ(s.warnings.nonfinite_repairs, 2u) << threads;
+    EXPECT_GT(s.warnings.nonfinite_values, 1u) << threads;
+    for (const Vec3& p : s.position) EXPECT_TRUE(p.allFinite());
+    // The other strands never notice.
+    for (int st : {0, 2})
+      for (int i = m.strandBegin(st); i < m.strandBegin(st) + m.strandSize(st); ++i)
+        EXPECT_EQ(s.position[i], reference.position[i]) << threads;
+  }
 }
 
 TEST(Solver, SubstepsSplitTheFrameEvenly) {
