@@ -209,7 +209,12 @@ void gatherBlock(Block<S>& blk) {
       // the scatter: the position keeps double's resolution from step to step.
       const Vec3 relative = state.position[k] - blk.origin;
       setLane(&a.p[i], l, relative);
-      setLane(&a.p_carry[i], l, lane(a.p[i], l) - relative);
+      // Axis by axis: GCC 12 at -O3 compiled the Eigen form lane(a.p[i], l) - relative to zero on
+      // the x and y axes, as if the store had not rounded (StrandBlock.TheCarryKeeps... tests).
+      const Vec3 held = lane(a.p[i], l);
+      setLaneValue(&a.p_carry[i].x, l, held.x() - relative.x());
+      setLaneValue(&a.p_carry[i].y, l, held.y() - relative.y());
+      setLaneValue(&a.p_carry[i].z, l, held.z() - relative.z());
       setLane(&a.v[i], l, state.velocity[k]);
       setLaneValue(&a.sigma[i], l, state.saturation[k]);
       setLaneValue(&a.m[i], l, model.mass_kg[k]);

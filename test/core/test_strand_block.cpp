@@ -118,3 +118,47 @@ TEST(StrandBlock, StrainRepairTriggersPastThreeTimesTheStrainLimit) {
   EXPECT_FALSE(strandStrainOk(scene.model, scene.config, 1, scene.state));
   EXPECT_TRUE(strandStrainOk(scene.model, scene.config, 0, scene.state));  // other strands: no
 }
+
+/// The gather rounds each position into the lanes and keeps what rounding lost in the carry
+/// (p_carry = lane - position): lane - carry is the position to double's resolution, and the
+/// scatter gives it back exactly when nothing moved. The hair at rest, away from the world's
+/// origin, so that float rounding loses something on every axis.
+template <typename S>
+void expectTheCarryKeepsDoublePositions() {
+  Scene scene;
+  scene.state = makeState(scene.model, Pose(), Twist());  // at rest: the limit moves nothing
+  scene.inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
+  scene.inputs.head_end = scene.inputs.head_start;
+  for (Vec3& p : scene.state.position) p += scene.inputs.head_start.translation;
+  const Vec3List before = scene.state.position;
+  const SolverPlan plan = planStep(scene.model, scene.config, 1e-3);
+  StepStats stats;
+  StrandFlags flags[kMaxStrandLanes];
+  const int width = std::min(kLaneWidth<S>, scene.model.strandCount());
+  Block<S> blk(scene.model, scene.config, scene.inputs, plan, &scene.state, &scene.state.scratch[0],
+               &stats, 1e-3);
+  initBlock(&blk, 0, width, flags);
+  double largest_carry = 0.0;
+  for (int l = 0; l < width; ++l) {
+    for (int i = 0; i < blk.n; ++i) {
+      const Vec3 relative = before[blk.begin[l] + i] - blk.origin;
+      const Vec3 carry = lane(blk.a.p_carry[i], l);
+      largest_carry = std::max(largest_carry, carry.cwiseAbs().minCoeff());
+      // Float holds the carry (~1e-8 m) to ~1e-15 m.
+      EXPECT_LT((lane(blk.a.p[i], l) - carry - relative).norm(), 1e-14) << l << " " << i;
+    }
+  }
+  // Float lanes: every axis of some particle lost something to rounding.
+  EXPECT_GT(largest_carry, 1e-10);
+  scatterBlock(blk);
+  for (int l = 0; l < width; ++l)
+    for (int i = 0; i < blk.n; ++i)
+      EXPECT_LT((scene.state.position[blk.begin[l] + i] - before[blk.begin[l] + i]).norm(), 1e-14);
+}
+
+TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat16Lanes) {
+  expectTheCarryKeepsDoublePositions<LaneFloat16>();
+}
+TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
+  expectTheCarryKeepsDoublePositions<LaneFloat8>();
+}
