@@ -171,3 +171,23 @@ TEST(Obstacles, ANonFiniteLaneOutsideTheMaskLeavesTheOthersAlone) {
     EXPECT_TRUE(lane(n, l).allFinite()) << l;
   }
 }
+
+TEST(Obstacles, APlaneOnLanesIsTheSamePlaneForANormalUnitOnlyToValidation) {
+  // Validation accepts normals unit to 1e-6; the lanes' re-anchored plane must still be the
+  // plane n . (x - center) = 0 of the scalar shape (to round-off, 2 m from the lanes' origin).
+  AnalyticObstacle plane;
+  plane.shape = AnalyticObstacle::Shape::kPlane;
+  plane.center_m = Vec3(0.0, 0.0, 1.0);
+  plane.normal = Vec3(0.0, 0.0, 1.0 + 9e-7);
+  Obstacles obstacles;
+  obstacles.analytic.push_back(plane);
+  const Vec3 origin(40.0, -25.0, 3.0);
+  V3<LaneDouble4> x;
+  for (int l = 0; l < 4; ++l) setLane(&x, l, Vec3(0.1 * l, 0.2, 0.5 - 0.3 * l));
+  V3<LaneDouble4> n;
+  const LaneDouble4 d = obstacles.distance(x, origin, LaneMask<LaneDouble4>{-1, -1, -1, -1}, &n);
+  for (int l = 0; l < 4; ++l) {
+    Vec3 expected_n;
+    EXPECT_NEAR(d[l], plane.distance(lane(x, l) + origin, &expected_n), 1e-14) << l;
+  }
+}

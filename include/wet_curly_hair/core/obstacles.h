@@ -112,8 +112,9 @@ S Obstacles::distance(const V3<S>& x, const Vec3& origin, const LaneMask<S>& lan
       take(sphereDistance(splat3<S>(Vec3(o.center_m - origin)), o.radius_m, x, &n), n);
     } else if (o.shape == AnalyticObstacle::Shape::kPlane) {
       // The plane's point nearest the origin: relative to the origin it is as long as the
-      // origin's distance from the plane, so float lanes hold it as precisely as the particles.
-      const Vec3 point = o.normal.dot(o.center_m - origin) * o.normal;
+      // origin's distance from the plane, so float lanes hold it as precisely as the particles
+      // (divided by |n|^2, n . (x - point) is n . (x - center) for a normal unit only to 1e-6).
+      const Vec3 point = (o.normal.dot(o.center_m - origin) / o.normal.squaredNorm()) * o.normal;
       take(planeDistance(splat3<S>(point), splat3<S>(o.normal), x, &n), n);
     } else {
       lane_by_lane([&](const Vec3& w, Vec3* nl) { return o.distance(w, nl); });
