@@ -19,7 +19,7 @@ void StrandScratch::resize(int n) {
   // values, 3 lane matrices of 9 and 10 lane scalars, a lane value being at most 64 bytes (8
   // doubles or 16 floats), then two 3-vectors of doubles for one lane, plus alignment slack.
   lane_capacity = n;
-  lane_buffer.assign(static_cast<size_t>(n) * ((14 * 3 + 3 * 9 + 10) * 8 + 2 * 3) + 16, 0.0);
+  lane_buffer.assign(static_cast<size_t>(n) * ((15 * 3 + 3 * 9 + 11) * 8 + 2 * 3) + 16, 0.0);
 }
 
 void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_offsets) {

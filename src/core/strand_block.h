@@ -47,10 +47,11 @@ struct BlockArrays {
   S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
   S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
   S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
-  /// Obstacle distance cache: where each particle's distance was last evaluated, and by how much
-  /// it then exceeded the reach of the obstacle stages (negative: evaluate next time).
-  V3<S>* obstacle_anchor;
-  S* obstacle_slack;
+  /// Distance caches (distanceNeeded): where each particle's obstacle and head distances were
+  /// last evaluated, and how far it may move from there before either may act (negative:
+  /// evaluate next time). The head's in the head frame.
+  V3<S>*obstacle_anchor, *head_anchor;
+  S *obstacle_slack, *head_slack;
   /// What the position updates lost to rounding (compensated summation, float layouts).
   V3<S>* p_carry;
   /// One lane in double, for the rare extra constraint rounds.
@@ -79,6 +80,7 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
   a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
   a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
+  a.head_anchor = v3(), a.head_slack = s1();
   bytes += (8 - reinterpret_cast<uintptr_t>(bytes) % 8) % 8;
   a.p_one = reinterpret_cast<V3<double>*>(bytes);
   a.v_one = a.p_one + n;
@@ -220,6 +222,7 @@ void gatherBlock(Block<S>& blk) {
       setLaneValue(&a.m[i], l, model.mass_kg[k]);
       setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
       setLaneValue(&a.obstacle_slack[i], l, -1.0);
+      setLaneValue(&a.head_slack[i], l, -1.0);
       setLaneValue(&a.rest_head_distance[i], l, model.rest_head_distance_m[k]);
       if (i < blk.edges) {
         setLaneValue(&a.rest[i], l, model.rest_edge_m[k]);
@@ -389,26 +392,28 @@ uint64_t curlForces(Block<S>& blk) {
   return particles;
 }
 
-/// Lanes whose obstacle distance must be evaluated at x. A signed distance changes by at most
-/// L |dx| when the point moves by dx: L = 1 for the analytic shapes (and the field's extension
-/// outside its box), L <= sqrt(3) for the trilinear field (each partial derivative is a weighted
-/// mean of sample differences over one voxel, at most one voxel each). While 2 |x - anchor|
-/// stays below the slack, the distance is still beyond the reach of collision and adhesion, so
-/// neither can act and the evaluation is skipped: the same result, less work.
+/// Lanes whose cached distance must be evaluated at x: where the particle has moved the slack or
+/// more from the anchor, the point of the last evaluation (or the slack is not positive). The
+/// slack is (distance - reach) / L for a distance that changes by at most L |dx| when the point
+/// moves by dx: while |x - anchor| stays below it, the distance is still beyond the stage's
+/// reach, so nothing can act and the evaluation is skipped: the same result, less work.
 template <typename S>
-WCH_INLINE LaneMask<S> obstacleDistanceNeeded(const V3<S>& x, const V3<S>& anchor, const S& slack) {
+WCH_INLINE LaneMask<S> distanceNeeded(const V3<S>& x, const V3<S>& anchor, const S& slack) {
   const V3<S> dx = x - anchor;
-  return !((slack > splat<S>(0.0)) && (splat<S>(4.0) * dot(dx, dx) < slack * slack));
+  return !((slack > splat<S>(0.0)) && (dot(dx, dx) < slack * slack));
 }
 
 /// The obstacles' distance at particle i on the lanes of `lanes`, remembered there for the cache
-/// above.
+/// above. L = 1 for the analytic shapes (and the field's extension outside its box), L <= sqrt(3)
+/// for the trilinear field (each partial derivative is a weighted mean of sample differences
+/// over one voxel, at most one voxel each): the slack takes L = 2.
 template <typename S>
 S obstacleDistance(Block<S>& blk, int i, const LaneMask<S>& lanes, V3<S>* normal) {
   BlockArrays<S>& a = blk.a;
   const S dist = blk.inputs.obstacles->distance(a.p[i], blk.origin, lanes, normal);
   a.obstacle_anchor[i] = select(lanes, a.p[i], a.obstacle_anchor[i]);
-  a.obstacle_slack[i] = select(lanes, dist - splat<S>(blk.obstacle_reach), a.obstacle_slack[i]);
+  a.obstacle_slack[i] =
+      select(lanes, splat<S>(0.5) * (dist - splat<S>(blk.obstacle_reach)), a.obstacle_slack[i]);
   return dist;
 }
 
@@ -424,9 +429,8 @@ uint64_t adhesionForces(Block<S>& blk) {
   const LaneMask<S> on = maskFromBools<LaneMask<S>>(blk.adhesion_on);
   uint64_t evaluated = 0;
   for (int i = 1; i < blk.n; ++i) {
-    const LaneMask<S> needed =
-        on && (a.sigma[i] > splat<S>(0.0)) &&
-        obstacleDistanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
+    const LaneMask<S> needed = on && (a.sigma[i] > splat<S>(0.0)) &&
+                               distanceNeeded(a.p[i], a.obstacle_anchor[i], a.obstacle_slack[i]);
     if (!anyLane(needed)) continue;
     V3<S> normal;
     const S dist = obstacleDistance(blk, i, needed, &normal);
@@ -667,26 +671,39 @@ void advancePositions(Block<S>& blk, const V3<S>& root_next) {
   }
 }
 
+/// What the head distance cache leaves of its slack for round-off: float lanes hold the
+/// head-frame position and the bound to ~1e-7 m (2^-24 of a strand's reach from the head).
+constexpr double kHeadCacheMargin_m = 1e-6;
+
 /// 7. Head collision (physics.md §6) of particles 1..n-1 of every lane: projection to the offset
 /// surface, inelastic, Coulomb friction, the head's velocity at the particle from the two poses.
 /// Adds each lane's contacts to touched[lane]. A particle's offset is delta or its rest distance
 /// from the head, whichever is smaller: near the root of a fine strand the rest pose lies inside
 /// delta (particle 1 of a 256-particle strand is 1 mm from the scalp), where the projection out
 /// to delta and the strain limit of the root edge would fight on every substep and pump
-/// velocity (measured: 2.5 m/s, held).
+/// velocity (measured: 2.5 m/s, held). With anchor and slack (else null), a distance cache in
+/// the head frame (distanceNeeded, L = 1: HeadShape::distance's lower bound) skips the rows no
+/// lane of which can be in contact.
 template <typename S>
 void collideHeadParticles(const HairModel& model, const CollisionConfig& config,
                           const SubstepMotion& motion, const Vec3& origin, double h,
-                          const S* rest_distance, V3<S>* p, V3<S>* v, int n, uint64_t* touched) {
+                          const S* rest_distance, V3<S>* anchor, S* slack, V3<S>* p, V3<S>* v,
+                          int n, uint64_t* touched) {
   const M33<S> r0 = splat33<S>(motion.r0), r1 = splat33<S>(motion.r1);
   const M33<S> r1_inverse = splat33<S>(motion.r1_inverse);
   const V3<S> t0 = splat3<S>(Vec3(motion.pose0.translation - origin));
   const V3<S> t1 = splat3<S>(Vec3(motion.pose1.translation - origin));
   for (int i = 1; i < n; ++i) {
     const V3<S> x_head = r1_inverse * (p[i] - t1);
+    if (anchor && !anyLane(distanceNeeded(x_head, anchor[i], slack[i]))) continue;
     V3<S> n_head;
-    const S dist = model.head.distance(x_head, &n_head);
+    S bound;
+    const S dist = model.head.distance(x_head, &n_head, anchor ? &bound : nullptr);
     const S offset = vmin(splat<S>(config.offset_m), vmax(rest_distance[i], splat<S>(0.0)));
+    if (anchor) {
+      anchor[i] = x_head;
+      slack[i] = bound - offset - splat<S>(kHeadCacheMargin_m);
+    }
     const auto contact = dist < offset;
     if (!anyLane(contact)) continue;
     const V3<S> v_head = (p[i] - (r0 * x_head + t0)) / splat<S>(h);
@@ -708,7 +725,7 @@ uint64_t collideObstacleParticles(const ObstacleCollisionConfig& config, const b
   uint64_t evaluated = 0;
   for (int i = 1; i < n; ++i) {
     LaneMask<S> needed = on_mask;
-    if (anchor) needed = needed && obstacleDistanceNeeded(p[i], anchor[i], slack[i]);
+    if (anchor) needed = needed && distanceNeeded(p[i], anchor[i], slack[i]);
     if (!anyLane(needed)) continue;
     V3<S> normal;
     const S dist = distance(i, needed, &normal);
@@ -774,9 +791,9 @@ uint64_t extraConstraintRounds(Block<S>& blk, const SubstepMotion& motion, int l
        ++round) {
     touched = 0;
     if (config.collision.head_enabled)
-      collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h,
-                           &blk.model.rest_head_distance_m[blk.begin[l]], a.p_one, a.v_one, n,
-                           &touched);
+      collideHeadParticles<double>(blk.model, config.collision, motion, blk.origin, blk.h,
+                                   &blk.model.rest_head_distance_m[blk.begin[l]], nullptr, nullptr,
+                                   a.p_one, a.v_one, n, &touched);
     if (obstacles)
       collideObstacleParticles<double>(config.obstacle, &obstacles, distance, nullptr, nullptr,
                                        a.p_one, a.v_one, n, &touched);
@@ -802,7 +819,7 @@ void collideAndLimit(Block<S>& blk, const SubstepMotion& motion, StageLaps& laps
   uint64_t touched[Block<S>::kWidth] = {};
   if (config.collision.head_enabled) {
     collideHeadParticles(blk.model, config.collision, motion, blk.origin, blk.h,
-                         a.rest_head_distance, a.p, a.v, n, touched);
+                         a.rest_head_distance, a.head_anchor, a.head_slack, a.p, a.v, n, touched);
     for (int l = 0; l < blk.active; ++l) blk.stats->head_contacts += touched[l];
     laps.lap(kStageHeadCollision, uint64_t(n - 1) * blk.active);
   }

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "wet_curly_hair/core/head_collider.h"
 
@@ -107,4 +108,37 @@ TEST(HeadCollider, CoulombFrictionKineticAndStatic) {
   Vec3 y(0, 0, 0), w = vobj + Vec3(0.1, 0.0, -1.0);
   collideParticle(0.0, Vec3::UnitZ(), 0.001, 0.3, vobj, &y, &w);
   EXPECT_LT((w - vobj).norm(), 1e-15);
+}
+
+TEST(HeadCollider, TheLowerBoundIsBelowTheDistanceAndOneLipschitz) {
+  // The head distance cache of the solver rests on this: where the bound b(x) is positive, the
+  // distance at any y is at least b(x) - |y - x|. Points and pairs all around the default head
+  // with a neck and two ears; on a sphere the bound is the distance itself.
+  HeadShape h;
+  h.capsules.push_back({"neck", Vec3(-0.01, 0, -0.06), Vec3(-0.02, 0, -0.25), 0.055});
+  h.capsules.push_back({"ear_l", Vec3(0, 0.07, -0.01), Vec3(0, 0.09, -0.01), 0.012});
+  h.capsules.push_back({"ear_r", Vec3(0, -0.07, -0.01), Vec3(0, -0.09, -0.01), 0.012});
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> box(-0.25, 0.25), step(-0.03, 0.03);
+  int positive = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Vec3 x(box(rng), box(rng), box(rng));
+    V3<double> n;
+    double bound = 0.0;
+    const double d = h.distance(toV3(x), &n, &bound);
+    if (!(bound > 0.0)) continue;
+    ++positive;
+    ASSERT_LE(bound, d + 1e-15) << x.transpose();
+    const Vec3 y = x + Vec3(step(rng), step(rng), step(rng));
+    Vec3 ny;
+    ASSERT_GE(h.distance(y, &ny), bound - (y - x).norm() - 1e-15) << x.transpose();
+  }
+  EXPECT_GT(positive, 10000);
+  HeadShape sphere;
+  sphere.ellipsoid.radii_m = Vec3(0.1, 0.1, 0.1);
+  V3<double> n;
+  double bound = 0.0;
+  const double d = sphere.distance(toV3(Vec3(0.03, -0.05, 0.12)), &n, &bound);
+  EXPECT_NEAR(bound, d, 1e-15);
+  EXPECT_NEAR(d, Vec3(0.03, -0.05, 0.12).norm() - 0.1, 1e-15);
 }

@@ -162,3 +162,85 @@ TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat16Lanes) {
 TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
   expectTheCarryKeepsDoublePositions<LaneFloat8>();
 }
+
+/// Particles in lanes of S wandering in and out of contact with a head with a neck, while the
+/// head turns and moves: head collision with the distance cache and without it, on copies, makes
+/// the same contacts and moves the particles the same to round-off (the two calls may contract
+/// the same expressions into different fused operations), and the cache skips rows. The lanes of
+/// a row start near each other, as neighbouring strands do.
+template <typename S>
+void expectTheHeadDistanceCacheChangesNothing() {
+  HairModel model;
+  model.head.capsules.push_back({"neck", Vec3(-0.01, 0, -0.06), Vec3(-0.02, 0, -0.25), 0.055});
+  CollisionConfig config;
+  StepInputs inputs;
+  inputs.head_start.translation = Vec3(0.1, -0.2, 0.3);
+  inputs.head_end.translation = Vec3(0.13, -0.18, 0.3);
+  inputs.head_end.rotation = Quat(Eigen::AngleAxisd(0.6, Vec3(0.3, 1.0, 0.2).normalized()));
+  const Vec3 origin = inputs.head_start.translation;
+  constexpr int kRows = 24, kSubsteps = 60;
+  const double h = 1.0 / 240.0;
+  std::mt19937 rng(5);
+  // Rows start from 3 % inside to 15 % outside the ellipsoid, their lanes within ~2 % of it.
+  std::normal_distribution<double> direction, nearby(0.0, 0.02);
+  std::uniform_real_distribution<double> shell(0.97, 1.15), walk(-1e-3, 1e-3), rest(0.0, 0.01);
+  std::vector<V3<S>> p(kRows), v(kRows), anchor(kRows);
+  std::vector<S> slack(kRows, splat<S>(-1.0)), rest_distance(kRows);
+  for (int i = 0; i < kRows; ++i) {
+    v[i] = zero3<S>();
+    const Vec3 u = Vec3(direction(rng), direction(rng), direction(rng)).normalized();
+    const double s = shell(rng);
+    for (int l = 0; l < kLaneWidth<S>; ++l) {
+      const Vec3 ul = (u + Vec3(nearby(rng), nearby(rng), nearby(rng))).normalized();
+      const Vec3 x_head = (s + nearby(rng)) * model.head.ellipsoid.radii_m.cwiseProduct(ul);
+      setLane(&p[i], l, Vec3(inputs.head_start.apply(x_head) - origin));
+      setLaneValue(&rest_distance[i], l, rest(rng));
+    }
+  }
+  std::vector<V3<S>> p_plain = p, v_plain = v;
+  uint64_t skipped = 0, contacts = 0;
+  for (int k = 0; k < kSubsteps; ++k) {
+    const SubstepMotion motion =
+        substepMotion(inputs, double(k) / kSubsteps, double(k + 1) / kSubsteps, h);
+    const V3<S> t1 = splat3<S>(Vec3(motion.pose1.translation - origin));
+    for (int i = 1; i < kRows; ++i) {
+      skipped += !anyLane(
+          distanceNeeded(splat33<S>(motion.r1_inverse) * (p[i] - t1), anchor[i], slack[i]));
+    }
+    uint64_t touched[kLaneWidth<S>] = {}, touched_plain[kLaneWidth<S>] = {};
+    collideHeadParticles<S>(model, config, motion, origin, h, rest_distance.data(), anchor.data(),
+                            slack.data(), p.data(), v.data(), kRows, touched);
+    collideHeadParticles<S>(model, config, motion, origin, h, rest_distance.data(), nullptr,
+                            nullptr, p_plain.data(), v_plain.data(), kRows, touched_plain);
+    for (int l = 0; l < kLaneWidth<S>; ++l) {
+      ASSERT_EQ(touched[l], touched_plain[l]) << "substep " << k << " lane " << l;
+      contacts += touched[l];
+      // Round-off: float holds a head-relative position to ~3e-8 m and a velocity (the motion
+      // over h) to ~3e-8 / h.
+      for (int i = 0; i < kRows; ++i) {
+        ASSERT_LT((lane(p[i], l) - lane(p_plain[i], l)).norm(), 1e-7) << k << " " << l << " " << i;
+        ASSERT_LT((lane(v[i], l) - lane(v_plain[i], l)).norm(), 1e-7 / h)
+            << k << " " << l << " " << i;
+      }
+    }
+    for (int i = 1; i < kRows; ++i) {  // the same random walk for both copies
+      V3<S> dx;
+      for (int l = 0; l < kLaneWidth<S>; ++l)
+        setLane(&dx, l, Vec3(walk(rng), walk(rng), walk(rng)));
+      p[i] += dx;
+      p_plain[i] += dx;
+    }
+  }
+  EXPECT_GT(contacts, uint64_t{kSubsteps});
+  EXPECT_GT(skipped, uint64_t{kSubsteps * (kRows - 1) / 4}) << "the cache never helps";
+}
+
+TEST(StrandBlock, TheHeadDistanceCacheChangesNothingInFloat16Lanes) {
+  expectTheHeadDistanceCacheChangesNothing<LaneFloat16>();
+}
+TEST(StrandBlock, TheHeadDistanceCacheChangesNothingInFloat8Lanes) {
+  expectTheHeadDistanceCacheChangesNothing<LaneFloat8>();
+}
+TEST(StrandBlock, TheHeadDistanceCacheChangesNothingInOneLane) {
+  expectTheHeadDistanceCacheChangesNothing<double>();
+}

@@ -31,12 +31,22 @@ WCH_INLINE double ellipsoidCentreDistance(const EllipsoidShape& e, Vec3* normal)
   return -e.radii_m.minCoeff();
 }
 
+/// r_min (k0 - 1), k0 = |x / r| of a head-frame point x relative to the centre: at most
+/// ellipsoidDistance's estimate outside the ellipsoid (k1 <= k0 / r_min there) and 1-Lipschitz in
+/// x (k0 is), so it bounds the estimate near x too.
+template <typename S>
+WCH_INLINE S ellipsoidDistanceLowerBound(const EllipsoidShape& e, const S& k0) {
+  return splat<S>(e.radii_m.minCoeff()) * (k0 - splat<S>(1.0));
+}
+
 /// Signed distance to an ellipsoid, negative inside. There is no closed form; this is the
 /// first-order estimate k0 (k0 - 1) / k1 with k0 = |x/r|, k1 = |x/r^2|, exact on the surface and
 /// on a sphere, within a few per cent near the surface of a head-like ellipsoid (tested). The
 /// gradient direction is the exact surface normal direction x/r^2 of the level set through x.
+/// lower_bound (optional) receives ellipsoidDistanceLowerBound.
 template <typename S>
-WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<S>* normal) {
+WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<S>* normal,
+                               S* lower_bound = nullptr) {
   // Products with the inverse radii and one reciprocal of k1: divisions are the costly lane
   // operation here, and this runs for every particle on every substep.
   const V3<S> x = x_head - splat3<S>(e.center_m);
@@ -44,6 +54,7 @@ WCH_INLINE S ellipsoidDistance(const EllipsoidShape& e, const V3<S>& x_head, V3<
   const V3<S> q = {x.x * inv_r.x, x.y * inv_r.y, x.z * inv_r.z};
   const V3<S> g = {q.x * inv_r.x, q.y * inv_r.y, q.z * inv_r.z};
   const S k0 = vsqrt(dot(q, q));
+  if (lower_bound) *lower_bound = ellipsoidDistanceLowerBound(e, k0);
   const S inv_k1 = splat<S>(1.0) / vsqrt(dot(g, g));
   *normal = inv_k1 * g;
   S dist = k0 * (k0 - splat<S>(1.0)) * inv_k1;
@@ -108,16 +119,19 @@ struct HeadShape {
   std::vector<CapsuleShape> capsules;
 
   /// Signed distance (m) of head-frame point x to the union of the shapes, with the unit outward
-  /// normal of the closest shape.
+  /// normal of the closest shape. lower_bound (optional) receives a 1-Lipschitz lower bound of
+  /// the distance where it is positive: the ellipsoid's (ellipsoidDistance) and the capsules'
+  /// exact distances, the smallest. So the distance at y is at least lower_bound - |y - x|.
   template <typename S>
-  WCH_INLINE S distance(const V3<S>& x, V3<S>* normal) const {
-    S best = ellipsoidDistance(ellipsoid, x, normal);
+  WCH_INLINE S distance(const V3<S>& x, V3<S>* normal, S* lower_bound = nullptr) const {
+    S best = ellipsoidDistance(ellipsoid, x, normal, lower_bound);
     for (const CapsuleShape& c : capsules) {
       V3<S> n;
       const S d = capsuleDistance(c, x, &n);
       const auto closer = d < best;
       *normal = select(closer, n, *normal);
       best = select(closer, d, best);
+      if (lower_bound) *lower_bound = vmin(*lower_bound, d);
     }
     return best;
   }
@@ -127,14 +141,13 @@ struct HeadShape {
     *normal = toEigen(n);
     return d;
   }
-  /// Whether distance(x) >= d for sure, without the ellipsoid's divisions: its distance
-  /// k0 (k0 - 1) / k1 (k0 = |x / r|, k1 = |x / r^2| <= k0 / r_min) is at least r_min (k0 - 1)
-  /// outside it; the capsules' exact distances. 1 nm of margin covers the round-off of the
-  /// bound, so a true answer never hides a contact; false says nothing.
+  /// Whether distance(x) >= d for sure, without the ellipsoid's divisions: its
+  /// ellipsoidDistanceLowerBound; the capsules' exact distances. 1 nm of margin covers the
+  /// round-off of the bound, so a true answer never hides a contact; false says nothing.
   bool surelyFartherThan(const Vec3& x, double d) const {
     const Vec3 q = (x - ellipsoid.center_m).cwiseProduct(ellipsoid.radii_m.cwiseInverse());
     const double k0 = q.norm();
-    if (!(ellipsoid.radii_m.minCoeff() * (k0 - 1.0) >= d + kSurelyMargin_m)) return false;
+    if (!(ellipsoidDistanceLowerBound(ellipsoid, k0) >= d + kSurelyMargin_m)) return false;
     for (const CapsuleShape& c : capsules) {
       Vec3 n;
       if (!(capsuleDistance(c, x, &n) >= d)) return false;
