@@ -63,6 +63,8 @@ struct Row {
   double cost = 0.0, follower_cost = 0.0;  ///< wall s per simulated s; the followers stage's
   double rms = 0.0, max = 0.0, tip_rms = 0.0, tip_max = 0.0;  ///< fractions of strand length
   double curl_radius_m = 0.0, clump_m = 0.0;
+  /// The followers' edges over the compared frames: the largest and the smallest (L - L0) / L0.
+  double max_strain = 0.0, min_strain = 0.0;
   bool finite = true;
   /// K > 1, the same scene with cohesion.gather_at "guides": its cost, its clump distance, and
   /// its followers' display positions p^w against those of the gather at every particle (same
@@ -92,6 +94,7 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   const FollowerMap& f = model.followers;
   const int first_follower = f.guide_strands > 0 ? f.guide_strands : model.strandCount();
   double sum2 = 0.0, tip_sum2 = 0.0, max = 0.0, tip_max = 0.0;
+  double max_strain = 0.0, min_strain = 0.0;
   double display_sum2 = 0.0, display_max = 0.0, offset_sum2 = 0.0;
   long count = 0, tips = 0, display_count = 0;
   const int follower_particle0 = model.strandBegin(first_follower);
@@ -116,6 +119,15 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
           display_max = std::max(display_max, e);
         }
         ++display_count;
+      }
+    }
+    for (int s = first_follower; s < model.strandCount(); ++s) {
+      const int begin = model.strandBegin(s);
+      for (int i = begin; i + 1 < begin + model.strandSize(s); ++i) {
+        const double strain =
+            (state.position[i + 1] - state.position[i]).norm() / model.rest_edge_m[i] - 1.0;
+        max_strain = std::max(max_strain, strain);
+        min_strain = std::min(min_strain, strain);
       }
     }
     if (store) {  // the full run: groom order is model order
@@ -169,6 +181,8 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   row.max = max;
   row.tip_rms = tips ? std::sqrt(tip_sum2 / tips) : 0.0;
   row.tip_max = tip_max;
+  row.max_strain = max_strain;
+  row.min_strain = min_strain;
   row.display_rms = display_count ? std::sqrt(display_sum2 / display_count) : 0.0;
   row.display_max = display_max;
   row.offset_rms = display_count ? std::sqrt(offset_sum2 / display_count) : 0.0;
@@ -267,19 +281,23 @@ int main(int argc, char** argv) {
   csv << "strands,K,guides,cost_s_per_s,followers_cpu_s_per_s,rms_pct,max_pct,tip_rms_pct,"
          "tip_max_pct,curl_radius_tip_mm,clump_distance_mm,finite,guides_cost_s_per_s,"
          "guides_clump_distance_mm,display_offset_rms_pct,guides_display_rms_pct,"
-         "guides_display_max_pct\n";
+         "guides_display_max_pct,follower_max_strain_pct,follower_min_strain_pct\n";
   std::printf(
       "| K | guides | cost, s/s | of it followers, s/s | RMS %% | max %% | tip RMS %% | tip max %% "
-      "| curl radius, mm | clump distance, mm |\n|---|---|---|---|---|---|---|---|---|---|\n");
+      "| curl radius, mm | clump distance, mm | follower edge strain, max / min %% |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows) {
     csv << o.strands << "," << r.k << "," << r.guides << "," << r.cost << "," << r.follower_cost
         << "," << 100 * r.rms << "," << 100 * r.max << "," << 100 * r.tip_rms << ","
         << 100 * r.tip_max << "," << 1e3 * r.curl_radius_m << "," << 1e3 * r.clump_m << ","
         << (r.finite ? 1 : 0) << "," << r.guides_cost << "," << 1e3 * r.guides_clump_m << ","
-        << 100 * r.offset_rms << "," << 100 * r.display_rms << "," << 100 * r.display_max << "\n";
-    std::printf("| %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f |\n", r.k,
-                r.guides, r.cost, r.follower_cost, 100 * r.rms, 100 * r.max, 100 * r.tip_rms,
-                100 * r.tip_max, 1e3 * r.curl_radius_m, 1e3 * r.clump_m);
+        << 100 * r.offset_rms << "," << 100 * r.display_rms << "," << 100 * r.display_max << ","
+        << 100 * r.max_strain << "," << 100 * r.min_strain << "\n";
+    std::printf(
+        "| %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f | %.3g / %.3g |\n", r.k,
+        r.guides, r.cost, r.follower_cost, 100 * r.rms, 100 * r.max, 100 * r.tip_rms,
+        100 * r.tip_max, 1e3 * r.curl_radius_m, 1e3 * r.clump_m, 100 * r.max_strain,
+        100 * r.min_strain);
   }
   std::printf(
       "\nThe cohesion display with the sums at the guides only (cohesion.gather_at guides) against"

@@ -112,6 +112,7 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
     state.guide_position_head.assign(guide_particles, Vec3::Zero());
     state.guide_rest_head.assign(guide_particles, Vec3::Zero());
     state.guide_rotation.assign(guide_particles, Mat3::Identity());
+    state.guide_edge_ratio.assign(guide_particles, 1.0);
     state.guide_clump_offset.assign(guide_particles, Vec3::Zero());
   }
   state.grid.resize(n, model.strand_offsets);

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
@@ -357,6 +358,37 @@ TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
   }
   EXPECT_GT(inside_unprojected, 0) << "nothing to project: the test proves nothing";
   EXPECT_GT(near_sphere, 0) << "the sphere is out of reach: the test proves nothing";
+}
+
+TEST(Followers, FollowerEdgesKeepTheStrainLimitAndTheirGuidesLengths) {
+  // Each guide turned rigidly about its root by its own large angle: the turned offsets of
+  // neighbouring guides disagree, and interpolated follower edges would stretch and crush. Every
+  // follower edge ends within the strain limit of its rest length (the guides' edges are at rest
+  // length: the lower bound is 1 - limit). No head: nothing projects after the limit.
+  SolverConfig c;
+  c.collision.head_enabled = false;
+  const HairModel m = followerModel(curlyGroom(120), 4, c);
+  const Pose pose;
+  HairState s = makeState(m, pose, Twist());
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> angle(-1.2, 1.2), axis(-1.0, 1.0);
+  for (int g = 0; g < m.followers.guide_strands; ++g) {
+    const Vec3 root = m.rest_position_head[m.strandBegin(g)];
+    const Mat3 turn =
+        Eigen::AngleAxisd(angle(rng), Vec3(axis(rng), axis(rng), axis(rng)).normalized())
+            .toRotationMatrix();
+    for (int i = m.strandBegin(g); i < m.strandBegin(g) + m.strandSize(g); ++i)
+      s.position[i] = root + turn * (m.rest_position_head[i] - root);
+  }
+  updateFollowers(m, c, pose, nullptr, kFrame, 2, &s);
+  const double limit = c.stretch.strain_limit;
+  for (int st = m.followers.guide_strands; st < m.strandCount(); ++st) {
+    for (int i = m.strandBegin(st); i + 1 < m.strandBegin(st) + m.strandSize(st); ++i) {
+      const double ratio = (s.position[i + 1] - s.position[i]).norm() / m.rest_edge_m[i];
+      EXPECT_LE(ratio, 1.0 + limit + 1e-12) << st << " " << i;
+      EXPECT_GE(ratio, 1.0 - limit - 1e-12) << st << " " << i;
+    }
+  }
 }
 
 TEST(Followers, ExaggeratedRestIsTheRestShapeWhenDryAndKeepsEdgeLengthsWhenWet) {

@@ -141,18 +141,20 @@ struct HeadShape {
     *normal = toEigen(n);
     return d;
   }
-  /// Whether distance(x) >= d for sure, without the ellipsoid's divisions: its
-  /// ellipsoidDistanceLowerBound; the capsules' exact distances. 1 nm of margin covers the
-  /// round-off of the bound, so a true answer never hides a contact; false says nothing.
-  bool surelyFartherThan(const Vec3& x, double d) const {
+  /// The lower bound of distance() at x (its lower_bound), without the ellipsoid's divisions.
+  double lowerBound(const Vec3& x) const {
     const Vec3 q = (x - ellipsoid.center_m).cwiseProduct(ellipsoid.radii_m.cwiseInverse());
-    const double k0 = q.norm();
-    if (!(ellipsoidDistanceLowerBound(ellipsoid, k0) >= d + kSurelyMargin_m)) return false;
+    double bound = ellipsoidDistanceLowerBound(ellipsoid, q.norm());
     for (const CapsuleShape& c : capsules) {
       Vec3 n;
-      if (!(capsuleDistance(c, x, &n) >= d)) return false;
+      bound = std::min(bound, capsuleDistance(c, x, &n));
     }
-    return true;
+    return bound;
+  }
+  /// Whether distance(x) >= d for sure: lowerBound. 1 nm of margin covers the round-off of the
+  /// bound, so a true answer never hides a contact; false says nothing.
+  bool surelyFartherThan(const Vec3& x, double d) const {
+    return lowerBound(x) >= d + kSurelyMargin_m;
   }
   static constexpr double kSurelyMargin_m = 1e-9;
   bool validate(const std::string& prefix, std::string* why) const;

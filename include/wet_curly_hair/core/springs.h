@@ -94,16 +94,26 @@ WCH_INLINE V3<S> clampAxialRelativeVelocity(const V3<S>& edge, const V3<S>& v_ro
   return select(below, v_tip_side - (a + max_axial_speed) * e, r);
 }
 
-/// Selle et al. 2008 biased strain limit (physics.md §2.2b, §3) for one edge, after the position
-/// update: if |p_tip - p_root| exceeds max_length, the tip-side particle is pulled back along
-/// the edge. Returns the displacement of the tip-side particle (zero within the limit).
+/// Selle et al. 2008 biased strain limit (physics.md §2.2b, §3) for one edge, two-sided: if
+/// |p_tip - p_root| lies outside [min_length, max_length], the tip-side particle is moved along
+/// the edge to the nearer bound. Returns the displacement of the tip-side particle (zero within
+/// the limits, and for an edge too short to have a direction).
+template <typename S>
+WCH_INLINE V3<S> clampEdgeLength(const V3<S>& p_root_side, const V3<S>& p_tip_side,
+                                 const S& min_length, const S& max_length) {
+  const V3<S> e = p_tip_side - p_root_side;
+  const S len = vsqrt(dot(e, e));
+  const auto within =
+      (len <= max_length && len >= min_length) || (len < splat<S>(kDirectionEpsilon));
+  return select(within, zero3<S>(), (vmin(vmax(len, min_length), max_length) / len) * e - e);
+}
+
+/// The strain limit of the simulated strands: stretching only (clampEdgeLength without a lower
+/// bound).
 template <typename S>
 WCH_INLINE V3<S> limitEdgeLength(const V3<S>& p_root_side, const V3<S>& p_tip_side,
                                  const S& max_length) {
-  const V3<S> e = p_tip_side - p_root_side;
-  const S len = vsqrt(dot(e, e));
-  const auto within = (len <= max_length) || (len < splat<S>(kDirectionEpsilon));
-  return select(within, zero3<S>(), (max_length / len) * e - e);
+  return clampEdgeLength(p_root_side, p_tip_side, splat<S>(0.0), max_length);
 }
 
 /// The axial spring f = k (|e| - L) e / |e| (stretch, eq. 1; core, eq. 5 with b) linearised:
@@ -212,6 +222,10 @@ WCH_INLINE Vec3 clampAxialRelativeVelocity(const Vec3& edge, const Vec3& v_root_
 WCH_INLINE Vec3 limitEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side,
                                 double max_length) {
   return toEigen(limitEdgeLength(toV3(p_root_side), toV3(p_tip_side), max_length));
+}
+WCH_INLINE Vec3 clampEdgeLength(const Vec3& p_root_side, const Vec3& p_tip_side, double min_length,
+                                double max_length) {
+  return toEigen(clampEdgeLength(toV3(p_root_side), toV3(p_tip_side), min_length, max_length));
 }
 
 /// Energy of the stretch spring, 1/2 k_s (|e| - |e0|)^2 (J).

@@ -201,6 +201,8 @@ struct HairState {
   /// exaggerated rest position (m), and the rotation of its edge's smoothed frame from rest.
   Vec3List guide_position_head, guide_rest_head;
   Mat3List guide_rotation;
+  /// Per guide particle but the last of each guide: its edge's length over its rest length.
+  std::vector<double> guide_edge_ratio;
   /// Per guide particle, cohesion.gather_at "guides": its display offset p^w - p of eq. (10),
   /// m, world frame, wet or dry (0 isolated): followers take theirs interpolated from these.
   Vec3List guide_clump_offset;
