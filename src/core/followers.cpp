@@ -277,6 +277,10 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
     near_obstacle = obstacles->distance(pose.apply(rest[0]), &normal) <= reach;
   }
   const double strain_limit = config.stretch.strain_limit;
+  // The pose as a matrix once per strand (a quaternion product per particle cost more).
+  const Mat3 rotation = pose.rotation.toRotationMatrix();
+  auto toWorld = [&](const Vec3& v) { return Vec3(rotation * v + pose.translation); };
+  const double inverse_dt = dt_s > 0.0 ? 1.0 / dt_s : 0.0;
   Vec3 previous = Vec3::Zero();              // the particle placed before, head frame
   double previous_ratio = 1.0;               // the least guide edge ratio at its samples
   DistanceCache head_cache, obstacle_cache;  // head frame; world
@@ -296,7 +300,8 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
       x += w * (guide + turn[a] * (rest[i] - guide_rest));
       ratio = std::min(ratio, state->guide_edge_ratio[a]);
     }
-    Vec3 world = pose.apply(x);
+    Vec3 world = x;
+    if (i == 0) world = toWorld(x);
     if (i > 0) {
       // The interpolation keeps no length: where the guides bend or part differently, their
       // turned offsets stretch and crush the follower's edges (measured to 6x and 1/40 of rest,
@@ -315,7 +320,7 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
                              (1.0 + strain_limit) * rest_length);
         bool moved =
             hc.head_enabled && projectOutOfHead(model.head, offset, hc.offset_m, &head_cache, &x);
-        world = pose.apply(x);
+        world = toWorld(x);
         if (near_obstacle && !obstacle_cache.covers(world)) {
           Vec3 normal;
           const double dist = obstacles->distance(world, &normal);
@@ -325,7 +330,7 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
           obstacle_cache.slack = 0.5 * (dist - oc.offset_m) - kFollowerCacheMargin_m;
           if (dist < oc.offset_m) {
             world += (oc.offset_m - dist) * normal;
-            x = pose.applyInverse(world);
+            x = rotation.transpose() * (world - pose.translation);
             moved = true;
           }
         }
@@ -335,7 +340,7 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
     previous = x;
     previous_ratio = ratio;
     Vec3& p = state->position[begin + i];
-    state->velocity[begin + i] = dt_s > 0.0 ? Vec3((world - p) / dt_s) : Vec3::Zero();
+    state->velocity[begin + i] = inverse_dt * (world - p);
     p = world;  // last_good_*: the repairs restore guides only; followers are placed anew
   }
 }
