@@ -232,6 +232,12 @@ struct DistanceCache {
 /// What the caches leave of their slack for round-off.
 constexpr double kFollowerCacheMargin_m = 1e-9;
 
+/// Rounds of the edge hold and the projections for a particle a projection moved: where the head
+/// and an obstacle pinch the hair they push in turn. Measured (2,000 strands, K = 10, the nod with
+/// the sphere): the shortest follower edge 0.18 of rest after 2 rounds, 0.76 after 6, at no cost
+/// seen (the rounds after the first run only where a projection acted).
+constexpr int kFollowerHoldRounds = 6;
+
 /// Pushes head-frame point x out of the head to `offset` (the solver's rule; at most
 /// max_offset for every particle of the strand). Returns whether it moved.
 bool projectOutOfHead(const HeadShape& head, double offset, double max_offset, DistanceCache* cache,
@@ -309,13 +315,14 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
       // limit and compressed no more than 1 - limit or the least of its guides' edges there (a
       // follower on a guide's root stays the guide's copy); then the projections. A projection can
       // crush the edge it ends (a particle pushed straight out lands beside the one before it):
-      // after one moved the particle, the edge is held and the particle projected once more.
+      // while one moves the particle, the edge is held and the particle projected again
+      // (kFollowerHoldRounds).
       const double rest_length = model.rest_edge_m[begin + i - 1];
       // The guides' edges between the samples of the edge's two ends: no shorter than theirs.
       const double shortest = std::min(1.0 - strain_limit, std::min(ratio, previous_ratio));
       // As the solver: never pushed farther out than the particle's rest distance.
       const double offset = std::min(hc.offset_m, model.rest_head_distance_m[begin + i]);
-      for (int pass = 0; pass < 2; ++pass) {
+      for (int pass = 0; pass < kFollowerHoldRounds; ++pass) {
         x += clampEdgeLength(previous, x, shortest * rest_length,
                              (1.0 + strain_limit) * rest_length);
         bool moved =
