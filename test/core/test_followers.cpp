@@ -391,6 +391,21 @@ TEST(Followers, FollowerEdgesKeepTheStrainLimitAndTheirGuidesLengths) {
   }
 }
 
+TEST(Followers, InAWetNodWithASphereNoFollowerEdgeGoesPastTheRepairBound) {
+  // The whole path (interpolation, hold, head and sphere projections) in a run: no follower edge
+  // ends longer than 3x the strain limit, the bound past which the solver repairs a guide
+  // (strandStrainOk). Without the hold, an edge reached 1.5x its rest length in this run.
+  const SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(200), 4, c);
+  const HairState s = wetNodRun(m, c, 60);
+  const double bound = 1.0 + 3.0 * c.stretch.strain_limit;
+  double largest = 0.0;
+  for (int st = m.followers.guide_strands; st < m.strandCount(); ++st)
+    for (int i = m.strandBegin(st); i + 1 < m.strandBegin(st) + m.strandSize(st); ++i)
+      largest = std::max(largest, (s.position[i + 1] - s.position[i]).norm() / m.rest_edge_m[i]);
+  EXPECT_LE(largest, bound);
+}
+
 TEST(Followers, ExaggeratedRestIsTheRestShapeWhenDryAndKeepsEdgeLengthsWhenWet) {
   const SolverConfig c;
   const HairModel m = followerModel(curlyGroom(8), 2, c);
