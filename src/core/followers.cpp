@@ -306,11 +306,12 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
       x += w * (guide + turn[a] * (rest[i] - guide_rest));
       ratio = std::min(ratio, state->guide_edge_ratio[a]);
     }
-    Vec3 world = x;
-    if (i == 0) world = toWorld(x);
-    if (i > 0) {
+    Vec3 world;
+    if (i == 0) {
+      world = toWorld(x);  // the root, where its guides' roots carry it
+    } else {
       // The interpolation keeps no length: where the guides bend or part differently, their
-      // turned offsets stretch and crush the follower's edges (measured to 6x and 1/40 of rest,
+      // turned offsets stretch and crush the follower's edges (measured to 6x and 1/20 of rest,
       // 10,000 strands at K = 10). Each edge is held, root to tip, within the solver's strain
       // limit and compressed no more than 1 - limit or the least of its guides' edges there (a
       // follower on a guide's root stays the guide's copy); then the projections. A projection can
