@@ -63,16 +63,11 @@ void targets(CurlFilterLanes* w) {
     const double len = std::sqrt(w->ax[l] * w->ax[l] + w->ay[l] * w->ay[l] + w->az[l] * w->az[l]);
     const double inv_len = 1.0 / len;
     const double px = w->ax[l] * inv_len, py = w->ay[l] * inv_len, pz = w->az[l] * inv_len;
-    const double c = w->hx[l] * px + w->hy[l] * py + w->hz[l] * pz;
-    const double gx = w->hy[l] * pz - w->hz[l] * py;
-    const double gy = w->hz[l] * px - w->hx[l] * pz;
-    const double gz = w->hx[l] * py - w->hy[l] * px;
-    const double s = 1.0 + c;
-    const double inv_norm = 1.0 / std::sqrt(s * s + gx * gx + gy * gy + gz * gz);
-    w->tw[l] = s * inv_norm, w->tx[l] = gx * inv_norm;
-    w->ty[l] = gy * inv_norm, w->tz[l] = gz * inv_norm;
+    double q[4];
+    w->cos_hp[l] = helixToHairQuaternionRegular(w->hx[l], w->hy[l], w->hz[l], px, py, pz, q);
+    w->tw[l] = q[0], w->tx[l] = q[1], w->ty[l] = q[2], w->tz[l] = q[3];
     w->ax[l] = px, w->ay[l] = py, w->az[l] = pz;
-    w->len[l] = len, w->cos_hp[l] = c;
+    w->len[l] = len;
   }
   for (int l = 0; l < kWidth; ++l) {
     if (!(w->cos_hp[l] < kOppositeCosine) || !(w->len[l] > w->min_len[l])) continue;

@@ -224,9 +224,7 @@ constexpr int kFollowerProjectionRounds = 4;
 struct DistanceCache {
   Vec3 anchor = Vec3::Zero();
   double slack = -1.0;
-  bool covers(const Vec3& x) const {
-    return slack > 0.0 && (x - anchor).squaredNorm() < slack * slack;
-  }
+  bool covers(const Vec3& x) const { return !distanceNeeded(toV3(x), toV3(anchor), slack); }
 };
 
 /// What the caches leave of their slack for round-off.

@@ -205,6 +205,8 @@ void gatherBlock(Block<S>& blk) {
   // Particle by particle, every lane: the lane arrays of one particle are written together (lane
   // by lane, each store touched all of the block's arrays, more than the L1 cache holds).
   for (int i = 0; i < blk.n; ++i) {
+    a.obstacle_slack[i] = splat<S>(-1.0);  // the distance caches start empty every step
+    a.head_slack[i] = splat<S>(-1.0);
     for (int l = 0; l < Block<S>::kWidth; ++l) {
       const int k = blk.begin[l] + i;
       // The carry starts as what rounding the position into the lane lost, and goes back out at
@@ -221,8 +223,6 @@ void gatherBlock(Block<S>& blk) {
       setLaneValue(&a.sigma[i], l, state.saturation[k]);
       setLaneValue(&a.m[i], l, model.mass_kg[k]);
       setLaneValue(&a.inv_m[i], l, model.inv_mass[k]);
-      setLaneValue(&a.obstacle_slack[i], l, -1.0);
-      setLaneValue(&a.head_slack[i], l, -1.0);
       setLaneValue(&a.rest_head_distance[i], l, model.rest_head_distance_m[k]);
       if (i < blk.edges) {
         setLaneValue(&a.rest[i], l, model.rest_edge_m[k]);
@@ -390,17 +390,6 @@ uint64_t curlForces(Block<S>& blk) {
   const uint64_t particles = uint64_t(blk.n) * lanes_on;
   blk.stats->curl_particle_substeps += particles;
   return particles;
-}
-
-/// Lanes whose cached distance must be evaluated at x: where the particle has moved the slack or
-/// more from the anchor, the point of the last evaluation (or the slack is not positive). The
-/// slack is (distance - reach) / L for a distance that changes by at most L |dx| when the point
-/// moves by dx: while |x - anchor| stays below it, the distance is still beyond the stage's
-/// reach, so nothing can act and the evaluation is skipped: the same result, less work.
-template <typename S>
-WCH_INLINE LaneMask<S> distanceNeeded(const V3<S>& x, const V3<S>& anchor, const S& slack) {
-  const V3<S> dx = x - anchor;
-  return !((slack > splat<S>(0.0)) && (dot(dx, dx) < slack * slack));
 }
 
 /// The obstacles' distance at particle i on the lanes of `lanes`, remembered there for the cache

@@ -34,6 +34,18 @@ WCH_INLINE S planeDistance(const V3<S>& point, const V3<S>& normal, const V3<S>&
   return dot(normal, x - point);
 }
 
+/// Lanes whose cached distance must be evaluated at x: where the particle has moved the slack or
+/// more from the anchor, the point of the last evaluation (or the slack is not positive). The
+/// slack is (distance - reach) / L for a distance that changes by at most L |dx| when the point
+/// moves by dx: while |x - anchor| stays below it, the distance is still beyond the stage's
+/// reach, so nothing can act and the evaluation is skipped: the same result, less work. The
+/// solver's obstacle and head stages and the follower projections use it.
+template <typename S>
+WCH_INLINE LaneMask<S> distanceNeeded(const V3<S>& x, const V3<S>& anchor, const S& slack) {
+  const V3<S> dx = x - anchor;
+  return !((slack > splat<S>(0.0)) && (dot(dx, dx) < slack * slack));
+}
+
 /// An analytic obstacle, world frame.
 struct AnalyticObstacle {
   enum class Shape { kSphere, kBox, kPlane };

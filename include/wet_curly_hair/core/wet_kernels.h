@@ -29,11 +29,24 @@ WCH_INLINE Mat3 helixToHairRotation(const Vec3& h_unit, const Vec3& p_unit) {
 /// helixToHairRotation as a unit quaternion, for the time-constant filter that slerps M
 /// (CurlConfig::rotation_time_constant_s): (1 + c, h x p) normalised is (cos(t/2), sin(t/2) n) of
 /// the same minimal rotation by t about n; nearly opposite vectors take the matrix's half turn.
+/// Its regular branch component by component, (1 + c, h x p) normalised into q = (w, x, y, z),
+/// so that the curl filter's SIMD loop runs it on every lane; returns c = h . p (the branch holds
+/// for c >= kOppositeCosine).
+WCH_INLINE double helixToHairQuaternionRegular(double hx, double hy, double hz, double px,
+                                               double py, double pz, double* q) {
+  const double c = hx * px + hy * py + hz * pz;
+  const double gx = hy * pz - hz * py, gy = hz * px - hx * pz, gz = hx * py - hy * px;
+  const double s = 1.0 + c;
+  const double inv_norm = 1.0 / std::sqrt(s * s + gx * gx + gy * gy + gz * gz);
+  q[0] = s * inv_norm, q[1] = gx * inv_norm, q[2] = gy * inv_norm, q[3] = gz * inv_norm;
+  return c;
+}
 WCH_INLINE Quat helixToHairQuaternion(const Vec3& h_unit, const Vec3& p_unit) {
-  const double c = h_unit.dot(p_unit);
-  if (c < kOppositeCosine) return Quat(helixToHairRotation(h_unit, p_unit));
-  const Vec3 g = h_unit.cross(p_unit);
-  return Quat(1.0 + c, g.x(), g.y(), g.z()).normalized();
+  if (h_unit.dot(p_unit) < kOppositeCosine) return Quat(helixToHairRotation(h_unit, p_unit));
+  double q[4];
+  helixToHairQuaternionRegular(h_unit.x(), h_unit.y(), h_unit.z(), p_unit.x(), p_unit.y(),
+                               p_unit.z(), q);
+  return Quat(q[0], q[1], q[2], q[3]);
 }
 
 /// The paper's literal eq. (7) direction (A7): rotates the hair direction onto the helix
