@@ -16,7 +16,7 @@
 // p^w: the result is bit-identical for any thread count. With grid_single_precision the gathers
 // read float copies of the node sums (8 lanes per AVX2 register instead of 4 doubles), the own
 // strand's share is summed in float in lattice units, and the particles where the own-strand
-// cancellation would expose float round-off (other-strand weight below 1e-3 of the own
+// cancellation would expose float round-off (other-strand weight below 1e-2 of the own
 // strand's) have both sums redone in double.
 #pragma once
 

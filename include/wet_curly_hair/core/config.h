@@ -194,7 +194,7 @@ struct CohesionConfig {
   int grid_cells_per_radius = 3;  ///< "grid": lattice nodes per kernel radius h, [2, 16].
   /// "grid": the gathers read single-precision copies of the node sums and, like the own-strand
   /// share, evaluate the kernel in float (twice the SIMD lanes); particles whose other-strand
-  /// weight is below 1e-3 of their own strand's, where float round-off would dominate the
+  /// weight is below 1e-2 of their own strand's, where float round-off would dominate the
   /// own-strand cancellation, have both sums redone in double. Chosen by measurement
   /// (docs/physics.md §7.3).
   bool grid_single_precision = true;
