@@ -519,33 +519,96 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int
   }
 }
 
-/// Splats every particle onto the 8 nodes of its cell: add(j, node, kx, ky, kz, t) with the
-/// trilinear weight t. Each thread owns a slab of node layers kz and scans all particles in
-/// order, adding only to its own nodes: every node receives its additions in particle order,
-/// as in a serial loop, so the lattice is bit-identical for any thread count.
-template <typename Add>
-void splat(const Lattice& L, const CohesionNodeGrid& g, int n, int threads, Add add) {
+/// The node layers kz split among a team of threads so that each adds about as many corners
+/// (a particle adds 4 to layer cz and 4 to cz + 1). Hair hangs: split into layers of equal
+/// count, the lower half of a 10,000-strand groom's box held 73 % of the particles, and the
+/// splats ran 1.16x faster on 2 threads than on 1. Lattices of more than kMaxLayers layers are
+/// split evenly.
+struct LayerSplit {
+  static constexpr int64_t kMaxLayers = 2048;
+  int64_t nz = 0;
+  bool balanced = false;
+  int64_t corners_below[kMaxLayers + 1];  ///< corners added to the layers below each layer
+
+  LayerSplit(const Lattice& L, const CohesionNodeGrid& g, int n) : nz(L.nz) {
+    balanced = nz <= kMaxLayers;
+    if (!balanced) return;
+    std::fill(corners_below, corners_below + nz + 1, 0);
+    for (int j = 0; j < n; ++j) {  // particles per cell layer, at corners_below[cz + 1] for now
+      const int64_t cz = static_cast<int64_t>(g.kz[j]);
+      if (cz >= 0 && cz + 1 < nz) ++corners_below[cz + 1];
+    }
+    int64_t below = 0, cells_below = 0;  // cells_below: particles whose cell is one layer down
+    for (int64_t k = 0; k < nz; ++k) {
+      const int64_t cells_here = corners_below[k + 1];
+      corners_below[k] = below;
+      below += 4 * (cells_here + cells_below);
+      cells_below = cells_here;
+    }
+    corners_below[nz] = below;
+  }
+
+  /// The first layer of thread t (t = team: the end).
+  int64_t first(int64_t t, int64_t team) const {
+    if (t >= team) return nz;
+    if (!balanced) return nz * t / team;
+    const int64_t target = corners_below[nz] * t / team;
+    return std::lower_bound(corners_below, corners_below + nz, target) - corners_below;
+  }
+};
+
+/// Splats every particle onto the 8 nodes of its cell: particle(j) gives the particle's adder,
+/// called as add(node, ax, ay, az, t) for the corner (cell + (ax, ay, az)) with the trilinear
+/// weight t, so that the particle's values are read once, not once per corner. Each thread owns
+/// a slab of node layers kz and scans all particles in order, adding only to its own nodes: every
+/// node receives its additions in particle order, as in a serial loop, so the lattice is
+/// bit-identical for any thread count and any split.
+template <typename Particle>
+void splat(const Lattice& L, const CohesionNodeGrid& g, const LayerSplit& layers, int n,
+           int threads, Particle particle) {
   parallelRegion(threads, [&](int64_t t, int64_t team) {
-    const int64_t z_lo = L.nz * t / team, z_hi = L.nz * (t + 1) / team;
+    const int64_t z_lo = layers.first(t, team), z_hi = layers.first(t + 1, team);
     for (int j = 0; j < n; ++j) {
       const int64_t cz = static_cast<int64_t>(g.kz[j]);
       if (cz + 1 < z_lo || cz >= z_hi) continue;
       const int64_t cx = static_cast<int64_t>(g.kx[j]), cy = static_cast<int64_t>(g.ky[j]);
+      const double tx = g.tx[j], ty = g.ty[j], tz = g.tz[j];
+      auto add = particle(j);
       for (int az = 0; az < 2; ++az) {
         const int64_t kz = cz + az;
         if (kz < z_lo || kz >= z_hi) continue;
-        const double wz = az ? g.tz[j] : 1.0 - g.tz[j];
+        const double wz = az ? tz : 1.0 - tz;
         for (int ay = 0; ay < 2; ++ay) {
-          const double wy = ay ? g.ty[j] : 1.0 - g.ty[j];
-          for (int ax = 0; ax < 2; ++ax) {
-            const int64_t kx = cx + ax, ky = cy + ay;
-            add(j, L.index(kx, ky, kz), kx, ky, kz, (ax ? g.tx[j] : 1.0 - g.tx[j]) * wy * wz);
-          }
+          const double wy = ay ? ty : 1.0 - ty;
+          const int64_t row = L.index(cx, cy + ay, kz);
+          add(row, 0, ay, az, (1.0 - tx) * wy * wz);
+          add(row + 1, 1, ay, az, tx * wy * wz);
         }
       }
     }
   });
 }
+
+/// Pass 2's adder for particle j: V, V sigma and V sigma (p - x_n) onto a corner node, with the
+/// particle's values and its offsets from the cell's corner planes read once.
+struct WetSplat {
+  double* __restrict volume;
+  double* __restrict wet_volume;
+  double* __restrict qx;
+  double* __restrict qy;
+  double* __restrict qz;
+  double v, vs;
+  double ox[2], oy[2], oz[2];  ///< p - x_n per axis for the corner's 0 and 1
+  void operator()(int64_t node, int ax, int ay, int az, double t) const {
+    volume[node] += t * v;
+    if (vs == 0.0) return;
+    const double tvs = t * vs;
+    wet_volume[node] += tvs;
+    qx[node] += tvs * ox[ax];
+    qy[node] += tvs * oy[ay];
+    qz[node] += tvs * oz[az];
+  }
+};
 
 /// The single-precision copy of a node array (the first `nodes` entries).
 void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t nodes, int threads) {
@@ -608,10 +671,14 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tz_f[j] = static_cast<float>(g.tz[j]);
   });
 
+  const LayerSplit layers(L, g, n);
+
   // Pass 1: mass to the nodes, density and volume of every particle.
   zero(&g.scalar, nodes, threads);
-  splat(L, g, n, threads, [&](int j, int64_t node, int64_t, int64_t, int64_t, double t) {
-    g.scalar[node] += t * model.mass_kg[j];
+  double* const mass_nodes = g.scalar.data();
+  splat(L, g, layers, n, threads, [&](int j) {
+    const double m = model.mass_kg[j];
+    return [m, mass_nodes](int64_t node, int, int, int, double t) { mass_nodes[node] += t * m; };
   });
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
@@ -638,15 +705,15 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
-  splat(L, g, n, threads, [&](int j, int64_t node, int64_t kx, int64_t ky, int64_t kz, double t) {
-    g.scalar[node] += t * g.volume[j];
-    const double vs = g.wet_share[j];
-    if (vs == 0.0) return;
-    const double tvs = t * vs;
-    g.wet_volume[node] += tvs;
-    g.qx[node] += tvs * (g.rx[j] - double(kx) * L.c);
-    g.qy[node] += tvs * (g.ry[j] - double(ky) * L.c);
-    g.qz[node] += tvs * (g.rz[j] - double(kz) * L.c);
+  splat(L, g, layers, n, threads, [&](int j) {
+    WetSplat add{g.scalar.data(), g.wet_volume.data(), g.qx.data(),   g.qy.data(),
+                 g.qz.data(),     g.volume[j],         g.wet_share[j]};
+    for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
+      add.ox[a] = g.rx[j] - (g.kx[j] + a) * L.c;
+      add.oy[a] = g.ry[j] - (g.ky[j] + a) * L.c;
+      add.oz[a] = g.rz[j] - (g.kz[j] + a) * L.c;
+    }
+    return add;
   });
 
   const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
