@@ -29,6 +29,9 @@ struct Lattice {
   int64_t cells = 0;  ///< nodes per kernel radius: h = cells c
   int64_t nx = 0, ny = 0, nz = 0;
   double ka = 0.0, kb = 0.0;  ///< node kernel K(q) = q (q^2 + ka q + kb), q = h^2 - r^2 >= 0
+  /// The node kernel of sums convolved on the lattice and interpolated to the particle
+  /// (nodeDensities): two trilinear interpolations, twice the correction.
+  double ka_both = 0.0, kb_both = 0.0;
   int64_t index(int64_t kx, int64_t ky, int64_t kz) const { return (kz * ny + ky) * nx + kx; }
 };
 
@@ -100,6 +103,14 @@ inline double laneSum(const V& v) {
   return pairwiseSum<kLanes>(__builtin_convertvector(v, typename DoubleLanes<kLanes>::type));
 }
 
+/// The node kernel, unnormalised: K(q) = q (q^2 + ka q + kb) with q = h^2 - r^2 >= 0, the poly6
+/// kernel of eq. (10) with the lattice's correction (computeDisplayCohesionGrid). Scalars or
+/// vector lanes.
+template <typename T, typename S>
+inline T nodeKernel(T q, S ka, S kb) {
+  return q * (q * q + ka * q + kb);
+}
+
 /// The rows (fixed ky, kz) that may hold nodes within h = kCells c of the point r (relative to
 /// the origin) are 2 kCells nodes wide: kx0 .. kx0 + 2 kCells - 1 holds every node of the row
 /// within h (the others get q = 0). Fixed-width rows need no per-row bounds, and the offsets
@@ -160,30 +171,6 @@ struct RowWindow {
     }
   }
 };
-
-/// sum_n W(|r - x_n|) a_n over the nodes within h (node kernel, unnormalised), evaluated in Real.
-/// Each lane keeps its own sum over the rows, added once at the end (a horizontal sum per row
-/// cost more than the row itself).
-template <int kCells, typename Real>
-double gatherScalar(const Lattice& L, const Real* __restrict a, const Vec3& r, double h2d) {
-  typedef RowWindow<kCells, Real> Window;
-  typedef typename Window::V V;
-  const Window win(L, r, h2d);
-  const Real ka = static_cast<Real>(L.ka), kb = static_cast<Real>(L.kb);
-  const Real h2 = static_cast<Real>(h2d);
-  const V zero = {};
-  V acc[Window::kChunks] = {};
-  win.forEachRow(L, h2d, [&](int64_t first, Real, Real, Real r2yz) {
-    for (int c = 0; c < Window::kChunks; ++c) {
-      V q = h2 - (win.dx2[c] + r2yz);
-      q = q > zero ? q : zero;
-      acc[c] += loadLanes<V>(a + first + c * kLanes) * (q * (q * q + ka * q + kb));
-    }
-  });
-  double sum = 0.0;
-  for (int c = 0; c < Window::kChunks; ++c) sum += laneSum(acc[c]);
-  return sum;
-}
 
 /// The smallest power of two that holds a row of the window (2 kCells nodes).
 constexpr int paddedRowWidth(int width) {
@@ -299,24 +286,6 @@ template <int kCells>
 constexpr bool kPackedRows = kCohesionFloatLanes / paddedRowWidth(2 * kCells) >= 2 &&
                              (2 * kCells) % (kCohesionFloatLanes / paddedRowWidth(2 * kCells)) == 0;
 
-/// gatherScalar in float with packed rows.
-template <int kCells>
-double gatherScalarPacked(const Lattice& L, const float* __restrict a, const Vec3& r, double h2d) {
-  typedef PackedRowWindow<kCells> Window;
-  typedef typename Window::V V;
-  const Window win(L, r, h2d);
-  const float ka = static_cast<float>(L.ka), kb = static_cast<float>(L.kb);
-  const float h2 = static_cast<float>(h2d);
-  const V zero = {};
-  V acc = zero;
-  win.forEachGroup(L, [&](int64_t first, int g, float, float dz2) {
-    V q = h2 - (win.dx2 + (win.dy2[g] + dz2));
-    q = q > zero ? q : zero;
-    acc += Window::load(a, first, L.nx) * (q * (q * q + ka * q + kb));
-  });
-  return Window::sum(acc);
-}
-
 /// Node arrays of pass 2 (eq. 10 over all strands).
 template <typename Real>
 struct WetNodes {
@@ -347,7 +316,7 @@ WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, doub
       const int64_t k = first + c * kLanes;
       V q = h2 - (win.dx2[c] + r2yz);
       q = q > zero ? q : zero;
-      const V w = q * (q * q + ka * q + kb);
+      const V w = nodeKernel(q, ka, kb);
       const V ws = w * loadLanes<V>(g.wet_volume + k);
       aw[c] += w * loadLanes<V>(g.volume + k);
       as[c] += ws;
@@ -379,7 +348,7 @@ WetSums gatherWetPacked(const Lattice& L, const WetNodes<float>& g, const Vec3& 
   win.forEachGroup(L, [&](int64_t first, int grp, float dz, float dz2) {
     V q = h2 - (win.dx2 + (win.dy2[grp] + dz2));
     q = q > zero ? q : zero;
-    const V w = q * (q * q + ka * q + kb);
+    const V w = nodeKernel(q, ka, kb);
     const V ws = w * Window::load(g.wet_volume, first, nx);
     aw += w * Window::load(g.volume, first, nx);
     as += ws;
@@ -394,13 +363,6 @@ WetSums gatherWetPacked(const Lattice& L, const WetNodes<float>& g, const Vec3& 
 }
 
 /// The float gathers: packed rows where they tile a register, one row per vector elsewhere.
-template <int kCells>
-double gatherScalarSingle(const Lattice& L, const float* a, const Vec3& r, double h2) {
-  if constexpr (kPackedRows<kCells>)
-    return gatherScalarPacked<kCells>(L, a, r, h2);
-  else
-    return gatherScalar<kCells>(L, a, r, h2);
-}
 template <int kCells>
 WetSums gatherWetSingle(const Lattice& L, const WetNodes<float>& g, const Vec3& r, double h2) {
   if constexpr (kPackedRows<kCells>)
@@ -443,7 +405,7 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, int b
       for (int ay = 0; ay < 2; ++ay)
         for (int ax = 0; ax < 2; ++ax) {
           const double q = std::max(0.0, h2 - (x2[ax] + y2[ay] + z2[az]));
-          wt += (wx[ax] * wy[ay] * wz[az]) * (q * (q * q + ka * q + kb));
+          wt += (wx[ax] * wy[ay] * wz[az]) * nodeKernel(q, ka, kb);
         }
     const double ws = wet[j] * wt;
     w_sum += vol[j] * wt;
@@ -501,7 +463,7 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int
           for (int ax = 0; ax < 2; ++ax) {
             V q = h2 - (x2[ax] + y2[ay] + z2[az]);
             q = q > zero ? q : zero;
-            wt += (wx[ax] * wy[ay] * wz[az]) * (q * (q * q + ka * q + kb));
+            wt += (wx[ax] * wy[ay] * wz[az]) * nodeKernel(q, ka, kb);
           }
       const V ws = wet[j] * wt;
       w_sum += vol[j] * wt;
@@ -610,6 +572,55 @@ struct WetSplat {
   }
 };
 
+/// out_n = sum_m K(|x_n - x_m|) in_m over the nodes m within h of n, with the two-sided node
+/// kernel (ka_both, kb_both), at every node whose window lies inside the lattice: the nodes of
+/// every particle's cell do (the lattice's margin is kCells + 2 nodes). An output row is a sum
+/// of input rows shifted by dx, which vectorises along x; layers run in parallel, and every
+/// node sums in the same order whatever the thread count.
+template <int kCells>
+void convolveNodes(const Lattice& L, double h2, const double* __restrict in, double* __restrict out,
+                   int threads) {
+  constexpr int kW = 2 * kCells + 1;
+  double taps[kW * kW * kW];  // K at the offset (dx, dy, dz) in [-kCells, kCells]^3; 0 beyond h
+  for (int dz = -kCells; dz <= kCells; ++dz)
+    for (int dy = -kCells; dy <= kCells; ++dy)
+      for (int dx = -kCells; dx <= kCells; ++dx) {
+        const double q = h2 - L.c * L.c * double(dx * dx + dy * dy + dz * dz);
+        taps[((dz + kCells) * kW + dy + kCells) * kW + dx + kCells] =
+            q > 0.0 ? nodeKernel(q, L.ka_both, L.kb_both) : 0.0;
+      }
+  const int64_t x_lo = kCells, x_hi = L.nx - kCells;
+  parallelFor(threads, Schedule::kStatic, int64_t{kCells}, L.nz - kCells, [&](int64_t kz) {
+    for (int64_t ky = kCells; ky < L.ny - kCells; ++ky) {
+      double* __restrict row = out + L.index(0, ky, kz);
+      for (int64_t x = x_lo; x < x_hi; ++x) row[x] = 0.0;
+      for (int dz = -kCells; dz <= kCells; ++dz)
+        for (int dy = -kCells; dy <= kCells; ++dy) {
+          const double* __restrict from = in + L.index(0, ky + dy, kz + dz);
+          const double* tap = taps + ((dz + kCells) * kW + dy + kCells) * kW + kCells;
+          for (int dx = -kCells; dx <= kCells; ++dx) {
+            const double w = tap[dx];
+            if (w == 0.0) continue;
+            for (int64_t x = x_lo; x < x_hi; ++x) row[x] += w * from[x + dx];
+          }
+        }
+    }
+  });
+}
+
+/// sum_n t_in a_n over the 8 nodes of particle i's cell (trilinear weights t_in).
+inline double interpolateNodes(const Lattice& L, const CohesionNodeGrid& g, const double* a,
+                               int i) {
+  const int64_t n = L.index(static_cast<int64_t>(g.kx[i]), static_cast<int64_t>(g.ky[i]),
+                            static_cast<int64_t>(g.kz[i]));
+  const int64_t up = L.nx * L.ny;
+  const double tx = g.tx[i], ty = g.ty[i], tz = g.tz[i];
+  auto along_x = [&](int64_t k) { return (1.0 - tx) * a[k] + tx * a[k + 1]; };
+  const double low = (1.0 - ty) * along_x(n) + ty * along_x(n + L.nx);
+  const double high = (1.0 - ty) * along_x(n + up) + ty * along_x(n + up + L.nx);
+  return (1.0 - tz) * low + tz * high;
+}
+
 /// The single-precision copy of a node array (the first `nodes` entries).
 void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t nodes, int threads) {
   const double* __restrict a = from.data();
@@ -680,13 +691,15 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     const double m = model.mass_kg[j];
     return [m, mass_nodes](int64_t node, int, int, int, double t) { mass_nodes[node] += t * m; };
   });
+  // The density at the nodes, then at each particle from its cell's nodes (the lattice's
+  // density field is smooth on the scale h: convolving once per node and interpolating costs a
+  // fraction of a gather per particle at the same error, docs/physics.md 7.3). Pass 2's node
+  // arrays are free until it starts: the node densities go to wet_volume.
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
-  if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
-  parallelFor(threads, Schedule::kDynamic, 256, gathered, [&](int i) {
-    const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
-    const double rho = single ? gatherScalarSingle<kCells>(L, g.scalar_f.data(), ri, h2)
-                              : gatherScalar<kCells>(L, g.scalar.data(), ri, h2);
-    state->density[i] = norm * rho;
+  double* const node_density = g.wet_volume.data();
+  convolveNodes<kCells>(L, h2, g.scalar.data(), node_density, threads);
+  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
+    state->density[i] = norm * interpolateNodes(L, g, node_density, i);
     g.volume[i] = model.mass_kg[i] / state->density[i];
   });
   if (at_guides) {  // the followers' densities from their guides', then their volumes
@@ -822,10 +835,15 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   // lap W: the nodes hold K = W - (c^2 / 12) lap W = q^3 + 3.5 c^2 q^2 - 2 c^2 h^2 q, whose
   // interpolant matches W to O(c^4) on average. Measured (docs/physics.md §7.3): RMS error 2.5x
   // smaller at 4 nodes per radius, 1.7x at 3, but 1.03x larger at 2 (c = h / 2 is too coarse for
-  // the Taylor argument), where it is left out.
+  // the Taylor argument), where it is left out. The densities, convolved at the nodes and
+  // interpolated to the particle, pass two interpolations: K = W - (c^2 / 6) lap W (with it
+  // the p^w error against exact at 3 nodes per radius is 1.02x the particle gathers', without
+  // it 1.21x; test_cohesion MatchesExactOnAWetCurlyScene).
   if (cfg.grid_cells_per_radius >= 3) {
     L.ka = 3.5 * L.c * L.c;
     L.kb = -2.0 * L.c * L.c * h2;
+    L.ka_both = 2.0 * L.ka;
+    L.kb_both = 2.0 * L.kb;
   }
   Vec3 lo = p[0], hi = p[0];
   for (int i = 1; i < n; ++i) {

@@ -259,6 +259,46 @@ TEST(CohesionGrid, SinglePrecisionMatchesDoubleFarBelowTheLatticeError) {
   }
 }
 
+TEST(CohesionGrid, ALoneParticlesDensityIsTheTwiceCorrectedKernelOverItsCell) {
+  // The densities are convolved at the nodes and interpolated to the particles: a particle alone
+  // within reach sees only itself, through two trilinear interpolations (its splat and the
+  // interpolation), whose mean bias the nodes cancel with K = W - (c^2 / 6) lap W (none at 2
+  // nodes per radius). W = q^3, q = h^2 - r^2, so lap W = -42 q^2 + 24 h^2 q. The strand's root
+  // sits at the box's top, in x and y on a node, and 0.3 m = 22.5 c (at 3 nodes per radius)
+  // above its tip, which sits on a node: the root's density mixes K at 0 and at c, half each.
+  for (int cells : {2, 3, 4}) {
+    SolverConfig sc;
+    sc.cohesion.evaluation = "grid";
+    sc.cohesion.grid_cells_per_radius = cells;
+    Groom g;
+    g.points = {Vec3(0, 0, 0), Vec3(0, 0, -0.3)};
+    g.strand_offsets.push_back(2);
+    g.root_normals = {Vec3(0, 0, -1)};
+    HairModel model;
+    std::string why;
+    ASSERT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), sc, &model, &why))
+        << why;
+    HairState state = makeState(model, Pose(), Twist());
+    std::fill(state.saturation.begin(), state.saturation.end(), 1.0);
+    computeDisplayCohesion(model, sc.cohesion, &state);
+    ASSERT_EQ(state.warnings.cohesion_grid_fallbacks, 0u);
+    const double h = sc.cohesion.radius_m, h2 = h * h, c = h / cells;
+    auto kernel = [&](double r) {
+      const double q = h2 - r * r;
+      const double laplacian = -42.0 * q * q + 24.0 * h2 * q;
+      return q * q * q - (cells >= 3 ? c * c / 6.0 : 0.0) * laplacian;
+    };
+    const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
+    const double tz = std::fmod(0.3 / c, 1.0);  // the root's fraction above its cell's floor
+    const double expected_root =
+        norm * model.mass_kg[0] *
+        ((tz * tz + (1 - tz) * (1 - tz)) * kernel(0.0) + 2.0 * tz * (1 - tz) * kernel(c));
+    EXPECT_NEAR(state.density[1], norm * model.mass_kg[1] * kernel(0.0), 1e-9 * state.density[1])
+        << cells;
+    EXPECT_NEAR(state.density[0], expected_root, 1e-9 * expected_root) << cells;
+  }
+}
+
 TEST(CohesionGrid, DryHairAndIsolatedStrandAreUntouched) {
   SolverConfig sc;
   sc.cohesion.evaluation = "grid";
