@@ -691,23 +691,19 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     const double m = model.mass_kg[j];
     return [m, mass_nodes](int64_t node, int, int, int, double t) { mass_nodes[node] += t * m; };
   });
-  // The density at the nodes, then at each particle from its cell's nodes (the lattice's
+  // The density at the nodes, then at every particle from its cell's nodes (the lattice's
   // density field is smooth on the scale h: convolving once per node and interpolating costs a
-  // fraction of a gather per particle at the same error, docs/physics.md 7.3). Pass 2's node
-  // arrays are free until it starts: the node densities go to wet_volume.
+  // fraction of a gather per particle, at 1.02x its error against exact, docs/physics.md 7.3),
+  // followers included with gather_at "guides": every particle has its own density, as with
+  // the sums at every particle. Pass 2's node arrays are free until it starts: the node
+  // densities go to wet_volume.
   const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
   double* const node_density = g.wet_volume.data();
   convolveNodes<kCells>(L, h2, g.scalar.data(), node_density, threads);
-  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
+  parallelFor(threads, Schedule::kStatic, 0, n, [&](int i) {
     state->density[i] = norm * interpolateNodes(L, g, node_density, i);
     g.volume[i] = model.mass_kg[i] / state->density[i];
   });
-  if (at_guides) {  // the followers' densities from their guides', then their volumes
-    interpolateFollowerDensity(model, state, threads);
-    parallelFor(threads, Schedule::kStatic, 0, n - gathered, [&](int k) {
-      g.volume[gathered + k] = model.mass_kg[gathered + k] / state->density[gathered + k];
-    });
-  }
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})

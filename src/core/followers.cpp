@@ -353,21 +353,6 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
 
 }  // namespace
 
-void interpolateFollowerDensity(const HairModel& model, HairState* state, int threads) {
-  const FollowerMap& f = model.followers;
-  if (f.guide_strands <= 0) return;
-  const int followers = model.strandCount() - f.guide_strands;
-  double* density = state->density.data();
-  detail::parallelFor(threads, detail::Schedule::kStatic, 0, followers, [&](int k) {
-    const int s = f.guide_strands + k, begin = model.strandBegin(s);
-    for (int i = begin; i < begin + model.strandSize(s); ++i) {
-      double rho = 0.0;
-      forEachGuideSample(model, s, i, [&](uint32_t a, double w) { rho += w * density[a]; });
-      density[i] = rho;
-    }
-  });
-}
-
 int displayFollowersFromGuides(const HairModel& model, HairState* state, int threads) {
   const FollowerMap& f = model.followers;
   if (f.guide_strands <= 0) return 0;

@@ -267,30 +267,33 @@ TEST(Followers, WithTheSumsAtTheGuidesAFollowerOnAGuideTakesItsDisplay) {
 }
 
 TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
-  // Exact evaluation keeps every particle's density exact, so the guides' sums, and their p^w,
-  // are those of the sums at every particle to the bit; the followers' differ (interpolated)
-  // but stay within the kernel's reach, lambda h, of their positions.
-  SolverConfig all;
-  all.cohesion.evaluation = "exact";
-  SolverConfig guides = all;
-  guides.cohesion.gather_at = "guides";
-  const HairModel m = followerModel(curlyGroom(60), 4, all);
-  const HairState a = wetNodRun(m, all, 20), b = wetNodRun(m, guides, 20);
-  const int first_follower = m.strandBegin(m.followers.guide_strands);
-  int moved = 0, differ = 0;
-  for (int i = 0; i < m.particleCount(); ++i) {
-    ASSERT_EQ(a.position[i], b.position[i]) << i;  // p^w never feeds back
-    if (i < first_follower) {
-      ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << i;
-      moved += a.wet_position[i] != a.position[i];
-    } else {
-      const double offset = (b.wet_position[i] - b.position[i]).norm();
-      ASSERT_LE(offset, all.cohesion.tightness * all.cohesion.radius_m) << i;
-      differ += a.wet_position[i] != b.wet_position[i];
+  // Both evaluations give every particle, followers included, its own density (exact, or the
+  // lattice's interpolated at it), so the guides' sums, and their p^w, are those of the sums at
+  // every particle to the bit; the followers' differ (interpolated) but stay within the
+  // kernel's reach, lambda h, of their positions.
+  for (const char* evaluation : {"exact", "grid"}) {
+    SolverConfig all;
+    all.cohesion.evaluation = evaluation;
+    SolverConfig guides = all;
+    guides.cohesion.gather_at = "guides";
+    const HairModel m = followerModel(curlyGroom(60), 4, all);
+    const HairState a = wetNodRun(m, all, 20), b = wetNodRun(m, guides, 20);
+    const int first_follower = m.strandBegin(m.followers.guide_strands);
+    int moved = 0, differ = 0;
+    for (int i = 0; i < m.particleCount(); ++i) {
+      ASSERT_EQ(a.position[i], b.position[i]) << i;  // p^w never feeds back
+      if (i < first_follower) {
+        ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << evaluation << " " << i;
+        moved += a.wet_position[i] != a.position[i];
+      } else {
+        const double offset = (b.wet_position[i] - b.position[i]).norm();
+        ASSERT_LE(offset, all.cohesion.tightness * all.cohesion.radius_m) << i;
+        differ += a.wet_position[i] != b.wet_position[i];
+      }
     }
+    EXPECT_GT(moved, 0) << evaluation << ": no guide clumped, the test proves nothing";
+    EXPECT_GT(differ, 0) << evaluation << ": the followers' p^w was not interpolated";
   }
-  EXPECT_GT(moved, 0) << "no guide clumped: the test proves nothing";
-  EXPECT_GT(differ, 0) << "the followers' p^w was not interpolated";
 }
 
 TEST(Followers, RigidHairStaysRigidWithTheHead) {

@@ -67,11 +67,6 @@ void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
   }
 }
 
-/// cohesion.gather_at "guides", before the sums of eq. (10): each follower particle's density
-/// (state->density) interpolated from its guides' (forEachGuideSample), which the caller has
-/// computed. No-op without followers.
-void interpolateFollowerDensity(const HairModel& model, HairState* state, int threads);
-
 /// cohesion.gather_at "guides", after the guides' display offsets (state->guide_clump_offset,
 /// wet or dry guide particles alike): every wet follower particle's p^w = p plus the offsets
 /// interpolated at it (forEachGuideSample). An approximation: a particle's own offset points at
