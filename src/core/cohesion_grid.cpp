@@ -590,7 +590,8 @@ void convolveNodes(const Lattice& L, double h2, const double* __restrict in, dou
             q > 0.0 ? nodeKernel(q, L.ka_both, L.kb_both) : 0.0;
       }
   const int64_t x_lo = kCells, x_hi = L.nx - kCells;
-  parallelFor(threads, Schedule::kStatic, int64_t{kCells}, L.nz - kCells, [&](int64_t kz) {
+  parallelFor(threads, Schedule::kStatic, 0, L.nz - 2 * kCells, [&](int64_t layer) {
+    const int64_t kz = layer + kCells;
     for (int64_t ky = kCells; ky < L.ny - kCells; ++ky) {
       double* __restrict row = out + L.index(0, ky, kz);
       for (int64_t x = x_lo; x < x_hi; ++x) row[x] = 0.0;
