@@ -102,7 +102,7 @@ struct HairContactState {
 /// bounding box. Node arrays in x-fastest order.
 struct CohesionNodeGrid {
   std::vector<double> scalar;      ///< pass 1: splatted mass; pass 2: splatted volume V.
-  std::vector<double> wet_volume;  ///< pass 2: splatted V sigma.
+  std::vector<double> wet_volume;  ///< pass 1: node densities (unnormalised); pass 2: V sigma.
   std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - node).
   /// Single-precision copies of the five node arrays above, read by the float gathers.
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
