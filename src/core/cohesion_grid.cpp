@@ -30,7 +30,7 @@ struct Lattice {
   int64_t nx = 0, ny = 0, nz = 0;
   double ka = 0.0, kb = 0.0;  ///< node kernel K(q) = q (q^2 + ka q + kb), q = h^2 - r^2 >= 0
   /// The node kernel of sums convolved on the lattice and interpolated to the particle
-  /// (nodeDensities): two trilinear interpolations, twice the correction.
+  /// (convolveNodes): two trilinear interpolations, twice the correction.
   double ka_both = 0.0, kb_both = 0.0;
   int64_t index(int64_t kx, int64_t ky, int64_t kz) const { return (kz * ny + ky) * nx + kx; }
 };
