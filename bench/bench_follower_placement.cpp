@@ -1,0 +1,111 @@
+// The follower placement alone (updateFollowers, followers.h): the built-in scene (curly, wet
+// toward the tips, nodding) with the sphere behind the head of bench_followers, at --strands
+// output strands and follow ratio --follow-ratio, stepped --warm-frames output frames so that the
+// guides have moved; then the same frame's placement timed --runs times on --threads threads.
+// Prints the median and the fastest wall time per follower particle, with the CPU. The machines
+// of docs/followers.md vary by tens of % from minute to minute: compare two builds by running
+// this with their libraries alternately (LD_LIBRARY_PATH), several times each.
+// usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
+//                                 [--threads T]
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "bench_common.h"
+#include "wet_curly_hair/core/followers.h"
+#include "wet_curly_hair/core/head_motion.h"
+#include "wet_curly_hair/core/saturation.h"
+#include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/core/state.h"
+#include "wet_curly_hair/io/scene.h"
+#include "wet_curly_hair/io/scene_setup.h"
+
+using namespace wet_curly_hair;
+
+namespace {
+
+struct Options {
+  int strands = 10000;
+  int follow_ratio = 100;
+  int warm_frames = 20;
+  int runs = 31;
+  int threads = 1;
+};
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) return false;
+    const int v = std::atoi(argv[++i]);
+    if (a == "--strands")
+      o->strands = v;
+    else if (a == "--follow-ratio")
+      o->follow_ratio = v;
+    else if (a == "--warm-frames")
+      o->warm_frames = v;
+    else if (a == "--runs")
+      o->runs = v;
+    else if (a == "--threads")
+      o->threads = v;
+    else
+      return false;
+  }
+  return o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
+         o->threads > 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  if (!parse(argc, argv, &o)) {
+    std::fprintf(stderr,
+                 "usage: bench_follower_placement [--strands N > 0] [--follow-ratio K > 1] "
+                 "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0]\n");
+    return 2;
+  }
+  io::SceneConfig scene = io::builtinScene();
+  scene.groom.strands = o.strands;
+  scene.groom.follow_ratio = o.follow_ratio;
+  scene.solver.integrator.threads = o.threads;
+  HairModel model;
+  std::string why;
+  if (!io::buildSceneModel(scene, &model, &why)) {
+    std::fprintf(stderr, "bench_follower_placement: %s\n", why.c_str());
+    return 1;
+  }
+  Obstacles obstacles;
+  AnalyticObstacle sphere;  // behind the head, as bench_followers
+  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
+  sphere.radius_m = 0.05;
+  obstacles.analytic.push_back(sphere);
+  const HeadMotionConfig& motion = scene.motion;
+  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
+  SaturationCommand wet;
+  wet.root_value = scene.saturation.root;
+  wet.tip_value = scene.saturation.tip;
+  applySaturation(model, wet, headPose(motion, 0.0), &state);
+  const double frame = 1.0 / 60.0;
+  for (int f = 0; f < o.warm_frames; ++f) {
+    const StepInputs in{headPose(motion, f * frame), headPose(motion, (f + 1) * frame), &obstacles};
+    step(model, scene.solver, in, frame, &state, nullptr);
+  }
+  const Pose pose = headPose(motion, o.warm_frames * frame);
+  const int followers =
+      model.particleCount() - static_cast<int>(model.strandBegin(model.followers.guide_strands));
+  std::vector<double> ns;
+  for (int r = 0; r < o.runs; ++r) {
+    const double t0 = bench::now();
+    updateFollowers(model, scene.solver, pose, &obstacles, frame, o.threads, &state);
+    ns.push_back((bench::now() - t0) / followers * 1e9);
+  }
+  std::sort(ns.begin(), ns.end());
+  std::printf(
+      "%s\n%d strands, K = %d (%d follower particles), %d thread(s), %d runs: "
+      "median %.1f ns, fastest %.1f ns per follower particle\n",
+      bench::cpuLine().c_str(), o.strands, o.follow_ratio, followers, o.threads, o.runs,
+      ns[ns.size() / 2], ns.front());
+  return 0;
+}
