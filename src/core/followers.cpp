@@ -260,14 +260,14 @@ bool projectOutOfHead(const HeadShape& head, double offset, double max_offset, D
   return moved;
 }
 
-/// The first stage of placeFollower, particle by particle (no particle depends on another here,
-/// so their work overlaps; interleaved with the edge hold, which runs root to tip, the follower
-/// placement cost 7-10 % more on the AMD EPYC with AVX2 at 10,000 strands, K = 100, and the same
-/// on the Xeon with AVX-512): each
-/// guide carries the follower's offset from it on the exaggerated rest shapes, turned with its
-/// smoothed frame, so rigid motions and large bends of the guides move the offset with them.
-/// x holds the strand's exaggerated rest positions and receives its head-frame positions;
-/// least_ratio receives the least guide edge ratio at each particle's samples.
+/// The first stage of placeFollower, particle by particle: each guide carries the follower's
+/// offset from it on the exaggerated rest shapes, turned with its smoothed frame, so rigid
+/// motions and large bends of the guides move the offset with them. No particle depends on
+/// another here, so their work overlaps: interleaved with the edge hold, which runs root to tip,
+/// the placement cost 7-10 % more on the AMD EPYC with AVX2 (10,000 strands, K = 100,
+/// bench_follower_placement), the same on the Xeon with AVX-512. x holds the strand's
+/// exaggerated rest positions and receives its head-frame positions; least_ratio receives the
+/// least guide edge ratio at each particle's samples.
 void interpolateFromGuides(const HairModel& model, const HairState& state, int s, Vec3* x,
                            double* least_ratio) {
   const FollowerMap& f = model.followers;
