@@ -411,7 +411,8 @@ void updateFollowers(const HairModel& model, const SolverConfig& config, const P
   });
   const int followers = model.strandCount() - f.guide_strands;
   detail::parallelFor(threads, detail::Schedule::kDynamic, 16, followers, [&](int k) {
-    // The diagnostics' and the stepper's per-strand scratch, free after the step.
+    // Per-strand scratch of the diagnostics and the stepper, free after the step: bend_p holds
+    // the follower's positions, velocity_factor its least guide edge ratios.
     StrandScratch& scratch = state->scratch[detail::threadIndex()];
     placeFollower(model, config, pose, obstacles, dt_s, f.guide_strands + k, scratch.bend_p.data(),
                   scratch.velocity_factor.data(), state);
