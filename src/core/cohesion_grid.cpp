@@ -551,24 +551,21 @@ void splat(const Lattice& L, const CohesionNodeGrid& g, const LayerSplit& layers
   });
 }
 
-/// Pass 2's adder for particle j: V, V sigma and V sigma (p - x_n) onto a corner node, with the
-/// particle's values and its offsets from the cell's corner planes read once.
+/// Pass 2's adder for particle j: V onto a corner node, and V sigma and V sigma (p - x_n) as one
+/// vector onto the node's 4 entries of the side-by-side array, with the particle's values and its
+/// offsets from the cell's corner planes read once.
 struct WetSplat {
+  typedef double Quad __attribute__((vector_size(32), aligned(8)));
   double* __restrict volume;
-  double* __restrict wet_volume;
-  double* __restrict qx;
-  double* __restrict qy;
-  double* __restrict qz;
+  double* __restrict wet;  ///< 4 per node: V sigma, V sigma (p - x_n)
   double v, vs;
   double ox[2], oy[2], oz[2];  ///< p - x_n per axis for the corner's 0 and 1
   void operator()(int64_t node, int ax, int ay, int az, double t) const {
     volume[node] += t * v;
     if (vs == 0.0) return;
     const double tvs = t * vs;
-    wet_volume[node] += tvs;
-    qx[node] += tvs * ox[ax];
-    qy[node] += tvs * oy[ay];
-    qz[node] += tvs * oz[az];
+    Quad* q = reinterpret_cast<Quad*>(wet + 4 * node);
+    *q += tvs * Quad{1.0, ox[ax], oy[ay], oz[az]};
   }
 };
 
@@ -630,9 +627,35 @@ void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t n
               [&](int64_t k) { b[k] = static_cast<float>(a[k]); });
 }
 
-void zero(std::vector<double>* v, int64_t nodes, int threads) {
+/// Pass 2's side-by-side splat (wet_splat, 4 per node) into the node arrays the gathers read:
+/// wet_volume, qx, qy, qz, and with `single` their float copies, in one pass over the nodes.
+void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads) {
+  const double* __restrict w = g->wet_splat.data();
+  double* __restrict s = g->wet_volume.data();
+  double* __restrict x = g->qx.data();
+  double* __restrict y = g->qy.data();
+  double* __restrict z = g->qz.data();
+  float* __restrict sf = g->wet_volume_f.data();
+  float* __restrict xf = g->qx_f.data();
+  float* __restrict yf = g->qy_f.data();
+  float* __restrict zf = g->qz_f.data();
+  parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) {
+    s[k] = w[4 * k];
+    x[k] = w[4 * k + 1];
+    y[k] = w[4 * k + 2];
+    z[k] = w[4 * k + 3];
+    if (!single) return;
+    sf[k] = static_cast<float>(s[k]);
+    xf[k] = static_cast<float>(x[k]);
+    yf[k] = static_cast<float>(y[k]);
+    zf[k] = static_cast<float>(z[k]);
+  });
+}
+
+/// The first `count` entries of v set to 0.
+void zero(std::vector<double>* v, int64_t count, int threads) {
   double* a = v->data();
-  parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) { a[k] = 0.0; });
+  parallelFor(threads, Schedule::kStatic, 0, count, [&](int64_t k) { a[k] = 0.0; });
 }
 
 }  // namespace
@@ -707,8 +730,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   });
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
-  for (std::vector<double>* v : {&g.scalar, &g.wet_volume, &g.qx, &g.qy, &g.qz})
-    zero(v, nodes, threads);
+  zero(&g.scalar, nodes, threads);
+  zero(&g.wet_splat, 4 * nodes, threads);
   parallelFor(threads, Schedule::kStatic, 0, n, [&](int j) {
     g.wet_share[j] = g.volume[j] * state->saturation[j];
     if (!single) return;
@@ -716,8 +739,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
   splat(L, g, layers, n, threads, [&](int j) {
-    WetSplat add{g.scalar.data(), g.wet_volume.data(), g.qx.data(),   g.qy.data(),
-                 g.qz.data(),     g.volume[j],         g.wet_share[j]};
+    WetSplat add{g.scalar.data(), g.wet_splat.data(), g.volume[j], g.wet_share[j], {}, {}, {}};
     for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
       add.ox[a] = g.rx[j] - (g.kx[j] + a) * L.c;
       add.oy[a] = g.ry[j] - (g.ky[j] + a) * L.c;
@@ -726,15 +748,10 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     return add;
   });
 
+  spreadWetSplat(&g, nodes, single, threads);
+  if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
   const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
                              g.qz.data()};
-  if (single) {
-    toSingle(g.scalar, &g.scalar_f, nodes, threads);
-    toSingle(g.wet_volume, &g.wet_volume_f, nodes, threads);
-    toSingle(g.qx, &g.qx_f, nodes, threads);
-    toSingle(g.qy, &g.qy_f, nodes, threads);
-    toSingle(g.qz, &g.qz_f, nodes, threads);
-  }
   // The own strands' shares in float, a strand at a time (strands with a wet particle only;
   // every guide with gather_at "guides").
   if (single) {

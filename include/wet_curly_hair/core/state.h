@@ -104,6 +104,9 @@ struct CohesionNodeGrid {
   std::vector<double> scalar;      ///< pass 1: splatted mass; pass 2: splatted volume V.
   std::vector<double> wet_volume;  ///< pass 1: node densities (unnormalised); pass 2: V sigma.
   std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - node).
+  /// Pass 2's splat of V sigma and V sigma (p - node), 4 per node side by side: a particle's
+  /// corner then adds to one vector, not to four arrays (copied to wet_volume, qx, qy, qz after).
+  std::vector<double> wet_splat;
   /// Single-precision copies of the five node arrays above, read by the float gathers.
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
   // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
