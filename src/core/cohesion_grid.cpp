@@ -697,7 +697,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tx[j] = fx - g.kx[j];
     g.ty[j] = fy - g.ky[j];
     g.tz[j] = fz - g.kz[j];
-    if (!single) return;  // the float copies are read by the float own-strand shares only
+    // The float copies are read by the float own-strand shares only, of the gathered strands.
+    if (!single || j >= gathered) return;
     g.kx_f[j] = static_cast<float>(g.kx[j]);
     g.ky_f[j] = static_cast<float>(g.ky[j]);
     g.kz_f[j] = static_cast<float>(g.kz[j]);
@@ -732,14 +733,22 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
   zero(&g.scalar, nodes, threads);
   zero(&g.wet_splat, 4 * nodes, threads);
-  parallelFor(threads, Schedule::kStatic, 0, n, [&](int j) {
+  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
+  // its own: with gather_at "guides" the followers' would be written and never read).
+  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
     g.wet_share[j] = g.volume[j] * state->saturation[j];
     if (!single) return;
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
   splat(L, g, layers, n, threads, [&](int j) {
-    WetSplat add{g.scalar.data(), g.wet_splat.data(), g.volume[j], g.wet_share[j], {}, {}, {}};
+    WetSplat add{g.scalar.data(),
+                 g.wet_splat.data(),
+                 g.volume[j],
+                 g.volume[j] * state->saturation[j],
+                 {},
+                 {},
+                 {}};
     for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
       add.ox[a] = g.rx[j] - (g.kx[j] + a) * L.c;
       add.oy[a] = g.ry[j] - (g.ky[j] + a) * L.c;

@@ -111,12 +111,13 @@ struct CohesionNodeGrid {
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
   // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
   std::vector<double> volume;      ///< V = m / rho from the lattice density.
-  std::vector<double> wet_share;   ///< V sigma.
+  std::vector<double> wet_share;   ///< V sigma (the gathered strands' particles only).
   std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
   std::vector<double> kx, ky, kz;  ///< lowest node of the particle's cell (integers).
   std::vector<double> tx, ty, tz;  ///< trilinear fractions in the cell, [0, 1).
   /// Single-precision copies of kx.., tx.., volume and wet_share, read by the float own-strand
-  /// sums (in lattice units: cell indices are exact in float, fractions lose nothing that matters).
+  /// sums (in lattice units: cell indices are exact in float, fractions lose nothing that matters);
+  /// written for the gathered strands' particles only (with gather_at "guides", the guides').
   /// Padded by kCohesionFloatLanes particles (zeros).
   std::vector<float> kx_f, ky_f, kz_f, tx_f, ty_f, tz_f, volume_f, wet_share_f;
   /// The own strand's share of each particle's sums, in float and lattice units (weight / c^6,
