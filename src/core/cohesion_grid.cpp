@@ -559,7 +559,9 @@ struct WetSplat {
   double* __restrict volume;
   double* __restrict wet;  ///< 4 per node: V sigma, V sigma (p - x_n)
   double v, vs;
-  double ox[2], oy[2], oz[2];  ///< p - x_n per axis for the corner's 0 and 1
+  double ox[2] = {}, oy[2] = {}, oz[2] = {};  ///< p - x_n per axis for the corner's 0 and 1
+  WetSplat(double* volume_nodes, double* wet_nodes, double volume_j, double wet_share_j)
+      : volume(volume_nodes), wet(wet_nodes), v(volume_j), vs(wet_share_j) {}
   void operator()(int64_t node, int ax, int ay, int az, double t) const {
     volume[node] += t * v;
     if (vs == 0.0) return;
@@ -742,13 +744,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
   splat(L, g, layers, n, threads, [&](int j) {
-    WetSplat add{g.scalar.data(),
-                 g.wet_splat.data(),
-                 g.volume[j],
-                 g.volume[j] * state->saturation[j],
-                 {},
-                 {},
-                 {}};
+    WetSplat add(g.scalar.data(), g.wet_splat.data(), g.volume[j],
+                 g.volume[j] * state->saturation[j]);
     for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
       add.ox[a] = g.rx[j] - (g.kx[j] + a) * L.c;
       add.oy[a] = g.ry[j] - (g.ky[j] + a) * L.c;
