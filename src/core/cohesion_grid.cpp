@@ -35,6 +35,32 @@ struct Lattice {
   int64_t index(int64_t kx, int64_t ky, int64_t kz) const { return (kz * ny + ky) * nx + kx; }
 };
 
+/// A particle's place on the lattice: its position relative to the origin, the lowest node of
+/// its cell (integers) and its trilinear fractions in the cell, [0, 1).
+struct CellPosition {
+  Vec3 r;
+  double k[3], t[3];
+};
+
+/// The lattice coordinate of position p along one axis, in nodes.
+inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
+  return (p[axis] - L.origin[axis]) * L.inv_c;
+}
+
+/// Computed from the position by every pass over all particles (a few operations, where storing
+/// them and reading them back in three passes moved 9 doubles per particle through memory): the
+/// same values to the bit as the gathered strands' stored copies (CohesionNodeGrid::rx..tz).
+inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
+  CellPosition c;
+  c.r = p - L.origin;
+  for (int a = 0; a < 3; ++a) {
+    const double f = c.r[a] * L.inv_c;
+    c.k[a] = std::floor(f);
+    c.t[a] = f - c.k[a];
+  }
+  return c;
+}
+
 /// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
 template <typename Real>
 struct Lanes;
@@ -492,12 +518,12 @@ struct LayerSplit {
   bool balanced = false;
   int64_t corners_below[kMaxLayers + 1];  ///< corners added to the layers below each layer
 
-  LayerSplit(const Lattice& L, const CohesionNodeGrid& g, int n) : nz(L.nz) {
+  LayerSplit(const Lattice& L, const Vec3List& p) : nz(L.nz) {
     balanced = nz <= kMaxLayers;
     if (!balanced) return;
     std::fill(corners_below, corners_below + nz + 1, 0);
-    for (int j = 0; j < n; ++j) {  // particles per cell layer, at corners_below[cz + 1] for now
-      const int64_t cz = static_cast<int64_t>(g.kz[j]);
+    for (const Vec3& x : p) {  // particles per cell layer, at corners_below[cz + 1] for now
+      const int64_t cz = static_cast<int64_t>(std::floor(nodeCoordinate(L, x, 2)));
       if (cz >= 0 && cz + 1 < nz) ++corners_below[cz + 1];
     }
     int64_t below = 0, cells_below = 0;  // cells_below: particles whose cell is one layer down
@@ -519,23 +545,25 @@ struct LayerSplit {
   }
 };
 
-/// Splats every particle onto the 8 nodes of its cell: particle(j) gives the particle's adder,
-/// called as add(node, ax, ay, az, t) for the corner (cell + (ax, ay, az)) with the trilinear
-/// weight t, so that the particle's values are read once, not once per corner. Each thread owns
-/// a slab of node layers kz and scans all particles in order, adding only to its own nodes: every
-/// node receives its additions in particle order, as in a serial loop, so the lattice is
-/// bit-identical for any thread count and any split.
+/// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell) gives the
+/// particle's adder, called as add(node, ax, ay, az, t) for the corner (cell + (ax, ay, az)) with
+/// the trilinear weight t, so that the particle's values are read once, not once per corner. Each
+/// thread owns a slab of node layers kz and scans all particles in order, adding only to its own
+/// nodes: every node receives its additions in particle order, as in a serial loop, so the
+/// lattice is bit-identical for any thread count and any split.
 template <typename Particle>
-void splat(const Lattice& L, const CohesionNodeGrid& g, const LayerSplit& layers, int n,
-           int threads, Particle particle) {
+void splat(const Lattice& L, const Vec3List& p, const LayerSplit& layers, int threads,
+           Particle particle) {
+  const int n = static_cast<int>(p.size());
   parallelRegion(threads, [&](int64_t t, int64_t team) {
     const int64_t z_lo = layers.first(t, team), z_hi = layers.first(t + 1, team);
     for (int j = 0; j < n; ++j) {
-      const int64_t cz = static_cast<int64_t>(g.kz[j]);
+      const int64_t cz = static_cast<int64_t>(std::floor(nodeCoordinate(L, p[j], 2)));
       if (cz + 1 < z_lo || cz >= z_hi) continue;
-      const int64_t cx = static_cast<int64_t>(g.kx[j]), cy = static_cast<int64_t>(g.ky[j]);
-      const double tx = g.tx[j], ty = g.ty[j], tz = g.tz[j];
-      auto add = particle(j);
+      const CellPosition cell = cellPosition(L, p[j]);
+      const int64_t cx = static_cast<int64_t>(cell.k[0]), cy = static_cast<int64_t>(cell.k[1]);
+      const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
+      auto add = particle(j, cell);
       for (int az = 0; az < 2; ++az) {
         const int64_t kz = cz + az;
         if (kz < z_lo || kz >= z_hi) continue;
@@ -608,13 +636,12 @@ void convolveNodes(const Lattice& L, double h2, const double* __restrict in, dou
   });
 }
 
-/// sum_n t_in a_n over the 8 nodes of particle i's cell (trilinear weights t_in).
-inline double interpolateNodes(const Lattice& L, const CohesionNodeGrid& g, const double* a,
-                               int i) {
-  const int64_t n = L.index(static_cast<int64_t>(g.kx[i]), static_cast<int64_t>(g.ky[i]),
-                            static_cast<int64_t>(g.kz[i]));
+/// sum_n t_n a_n over the 8 nodes of a particle's cell (trilinear weights t_n).
+inline double interpolateNodes(const Lattice& L, const CellPosition& cell, const double* a) {
+  const int64_t n = L.index(static_cast<int64_t>(cell.k[0]), static_cast<int64_t>(cell.k[1]),
+                            static_cast<int64_t>(cell.k[2]));
   const int64_t up = L.nx * L.ny;
-  const double tx = g.tx[i], ty = g.ty[i], tz = g.tz[i];
+  const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
   auto along_x = [&](int64_t k) { return (1.0 - tx) * a[k] + tx * a[k + 1]; };
   const double low = (1.0 - ty) * along_x(n) + ty * along_x(n + L.nx);
   const double high = (1.0 - ty) * along_x(n + up) + ty * along_x(n + up + L.nx);
@@ -685,22 +712,21 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const bool at_guides = cfg.gather_at == "guides" && guide_strands > 0;
   const int gathered = at_guides ? static_cast<int>(model.strandBegin(guide_strands)) : n;
   const int gathered_strands = at_guides ? guide_strands : model.strandCount();
-  // Every particle's position on the lattice, cell and trilinear fractions, once: the splats
-  // and the own-strand shares use them.
-  parallelFor(threads, Schedule::kStatic, 0, int(n), [&](int j) {
-    const Vec3 r = p[j] - L.origin;
-    const double fx = r.x() * L.inv_c, fy = r.y() * L.inv_c, fz = r.z() * L.inv_c;
-    g.rx[j] = r.x();
-    g.ry[j] = r.y();
-    g.rz[j] = r.z();
-    g.kx[j] = std::floor(fx);
-    g.ky[j] = std::floor(fy);
-    g.kz[j] = std::floor(fz);
-    g.tx[j] = fx - g.kx[j];
-    g.ty[j] = fy - g.ky[j];
-    g.tz[j] = fz - g.kz[j];
-    // The float copies are read by the float own-strand shares only, of the gathered strands.
-    if (!single || j >= gathered) return;
+  // The gathered strands' particles' positions on the lattice, cells and trilinear fractions,
+  // stored for their gathers and own-strand shares (the passes over every particle compute them
+  // from the positions: cellPosition).
+  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
+    const CellPosition cell = cellPosition(L, p[j]);
+    g.rx[j] = cell.r.x();
+    g.ry[j] = cell.r.y();
+    g.rz[j] = cell.r.z();
+    g.kx[j] = cell.k[0];
+    g.ky[j] = cell.k[1];
+    g.kz[j] = cell.k[2];
+    g.tx[j] = cell.t[0];
+    g.ty[j] = cell.t[1];
+    g.tz[j] = cell.t[2];
+    if (!single) return;  // the float copies are read by the float own-strand shares only
     g.kx_f[j] = static_cast<float>(g.kx[j]);
     g.ky_f[j] = static_cast<float>(g.ky[j]);
     g.kz_f[j] = static_cast<float>(g.kz[j]);
@@ -709,12 +735,12 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tz_f[j] = static_cast<float>(g.tz[j]);
   });
 
-  const LayerSplit layers(L, g, n);
+  const LayerSplit layers(L, p);
 
   // Pass 1: mass to the nodes, density and volume of every particle.
   zero(&g.scalar, nodes, threads);
   double* const mass_nodes = g.scalar.data();
-  splat(L, g, layers, n, threads, [&](int j) {
+  splat(L, p, layers, threads, [&](int j, const CellPosition&) {
     const double m = model.mass_kg[j];
     return [m, mass_nodes](int64_t node, int, int, int, double t) { mass_nodes[node] += t * m; };
   });
@@ -728,7 +754,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   double* const node_density = g.wet_volume.data();
   convolveNodes<kCells>(L, h2, g.scalar.data(), node_density, threads);
   parallelFor(threads, Schedule::kStatic, 0, n, [&](int i) {
-    state->density[i] = norm * interpolateNodes(L, g, node_density, i);
+    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
     g.volume[i] = model.mass_kg[i] / state->density[i];
   });
 
@@ -743,13 +769,13 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
-  splat(L, g, layers, n, threads, [&](int j) {
+  splat(L, p, layers, threads, [&](int j, const CellPosition& cell) {
     WetSplat add(g.scalar.data(), g.wet_splat.data(), g.volume[j],
                  g.volume[j] * state->saturation[j]);
     for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
-      add.ox[a] = g.rx[j] - (g.kx[j] + a) * L.c;
-      add.oy[a] = g.ry[j] - (g.ky[j] + a) * L.c;
-      add.oz[a] = g.rz[j] - (g.kz[j] + a) * L.c;
+      add.ox[a] = cell.r.x() - (cell.k[0] + a) * L.c;
+      add.oy[a] = cell.r.y() - (cell.k[1] + a) * L.c;
+      add.oz[a] = cell.r.z() - (cell.k[2] + a) * L.c;
     }
     return add;
   });

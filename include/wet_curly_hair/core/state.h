@@ -110,8 +110,10 @@ struct CohesionNodeGrid {
   /// Single-precision copies of the five node arrays above, read by the float gathers.
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
   // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
-  std::vector<double> volume;      ///< V = m / rho from the lattice density.
-  std::vector<double> wet_share;   ///< V sigma (the gathered strands' particles only).
+  std::vector<double> volume;     ///< V = m / rho from the lattice density.
+  std::vector<double> wet_share;  ///< V sigma (the gathered strands' particles only).
+  // The gathered strands' particles only (the passes over every particle compute these from
+  // the positions):
   std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
   std::vector<double> kx, ky, kz;  ///< lowest node of the particle's cell (integers).
   std::vector<double> tx, ty, tz;  ///< trilinear fractions in the cell, [0, 1).
