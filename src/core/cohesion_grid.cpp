@@ -637,7 +637,7 @@ void convolveNodes(const Lattice& L, double h2, const double* __restrict in, dou
 }
 
 /// sum_n t_n a_n over the 8 nodes of a particle's cell (trilinear weights t_n).
-inline double interpolateNodes(const Lattice& L, const CellPosition& cell, const double* a) {
+WCH_INLINE double interpolateNodes(const Lattice& L, const CellPosition& cell, const double* a) {
   const int64_t n = L.index(static_cast<int64_t>(cell.k[0]), static_cast<int64_t>(cell.k[1]),
                             static_cast<int64_t>(cell.k[2]));
   const int64_t up = L.nx * L.ny;
