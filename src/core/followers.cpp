@@ -260,16 +260,40 @@ bool projectOutOfHead(const HeadShape& head, double offset, double max_offset, D
   return moved;
 }
 
+/// Follower strand s's exaggerated rest shape (exaggeratedRest, head frame): the state's copy,
+/// computed again where the strand's saturation or its curl or bend constant (the other inputs
+/// are the model's) differ from those it was computed with.
+const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, HairState* state) {
+  const int begin = model.strandBegin(s), n = model.strandSize(s);
+  const size_t k = static_cast<size_t>(begin - model.strandBegin(model.followers.guide_strands));
+  const size_t f = 2 * static_cast<size_t>(s - model.followers.guide_strands);
+  // exaggeratedRest's constants, as it reads them.
+  const double kw = curl.enabled ? model.curl_k[s] : 0.0, kb = model.bend_k[s];
+  const double* sigma = &state->saturation[begin];
+  double* held_sigma = &state->follower_rest_saturation[k];
+  double* key = &state->follower_rest_key[f];
+  Vec3* held = &state->follower_rest_head[k];
+  bool same = key[0] == kw && key[1] == kb;
+  for (int i = 0; i < n && same; ++i) same = held_sigma[i] == sigma[i];
+  if (!same) {
+    exaggeratedRest(model, curl, s, sigma, held);
+    std::copy_n(sigma, n, held_sigma);
+    key[0] = kw;
+    key[1] = kb;
+  }
+  return held;
+}
+
 /// The first stage of placeFollower, particle by particle: each guide carries the follower's
 /// offset from it on the exaggerated rest shapes, turned with its smoothed frame, so rigid
 /// motions and large bends of the guides move the offset with them. No particle depends on
 /// another here, so their work overlaps: interleaved with the edge hold, which runs root to tip,
 /// the placement cost 7-10 % more on the AMD EPYC with AVX2 (10,000 strands, K = 100,
-/// bench_follower_placement), the same on the Xeon with AVX-512. x holds the strand's
-/// exaggerated rest positions and receives its head-frame positions; least_ratio receives the
-/// least guide edge ratio at each particle's samples.
-void interpolateFromGuides(const HairModel& model, const HairState& state, int s, Vec3* x,
-                           double* least_ratio) {
+/// bench_follower_placement), the same on the Xeon with AVX-512. rest holds the strand's
+/// exaggerated rest positions; x receives its head-frame positions and least_ratio the least
+/// guide edge ratio at each particle's samples.
+void interpolateFromGuides(const HairModel& model, const HairState& state, int s, const Vec3* rest,
+                           Vec3* x, double* least_ratio) {
   const FollowerMap& f = model.followers;
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const int first = model.strandBegin(f.guide_strands);
@@ -280,7 +304,6 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
   const double* edge_ratio = state.guide_edge_ratio.data();
   const double* weight = &f.weight[static_cast<size_t>(k) * kFollowerGuides];
   for (int i = 0; i < n; ++i) {
-    const Vec3 rest = x[i];
     Vec3 sum = Vec3::Zero();
     double ratio = 1.0;
     const size_t e0 = static_cast<size_t>(begin + i - first) * kFollowerGuides;
@@ -291,7 +314,7 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
       const double t = f.sample_fraction[e0 + g];
       const Vec3 guide = (1.0 - t) * xg[a] + t * xg[a + 1];
       const Vec3 guide_rest = (1.0 - t) * rg[a] + t * rg[a + 1];
-      sum += w * (guide + turn[a] * (rest - guide_rest));
+      sum += w * (guide + turn[a] * (rest[i] - guide_rest));
       ratio = std::min(ratio, edge_ratio[a]);
     }
     x[i] = sum;
@@ -306,16 +329,16 @@ void placeFollower(const HairModel& model, const SolverConfig& config, const Pos
                    const Obstacles* obstacles, double dt_s, int s, Vec3* x, double* least_ratio,
                    HairState* state) {
   const int begin = model.strandBegin(s), n = model.strandSize(s);
-  exaggeratedRest(model, config.curl, s, &state->saturation[begin], x);
+  const Vec3* rest = followerRest(model, config.curl, s, state);
   const CollisionConfig& hc = config.collision;
   const ObstacleCollisionConfig& oc = config.obstacle;
   bool near_obstacle = false;  // from the rest root: the strand cannot reach farther
   if (obstacles && oc.enabled && !obstacles->empty()) {
     Vec3 normal;
     const double reach = model.strand_length_m[s] + oc.margin_m + oc.offset_m;
-    near_obstacle = obstacles->distance(pose.apply(x[0]), &normal) <= reach;
+    near_obstacle = obstacles->distance(pose.apply(rest[0]), &normal) <= reach;
   }
-  interpolateFromGuides(model, *state, s, x, least_ratio);
+  interpolateFromGuides(model, *state, s, rest, x, least_ratio);
   const double strain_limit = config.stretch.strain_limit;
   // The pose as a matrix once per strand (a quaternion product per particle cost more).
   const Mat3 rotation = pose.rotation.toRotationMatrix();

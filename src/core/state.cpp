@@ -86,6 +86,9 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
   }
   state->last_good_position = state->position;
   state->last_good_velocity = state->velocity;
+  // The followers' exaggerated rest shapes are computed again at the next placement.
+  std::fill(state->follower_rest_saturation.begin(), state->follower_rest_saturation.end(),
+            std::numeric_limits<double>::quiet_NaN());
   // Hair contact starts over: no pair engaged, the pair list rebuilt at the next substep.
   std::fill(state->hair_contact.engagement.begin(), state->hair_contact.engagement.end(), 0.0);
   state->hair_contact.invalidate();
@@ -115,6 +118,11 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
     state.guide_rotation.assign(guide_particles, Mat3::Identity());
     state.guide_edge_ratio.assign(guide_particles, 1.0);
     state.guide_clump_offset.assign(guide_particles, Vec3::Zero());
+    const size_t follower_particles = n - guide_particles;
+    state.follower_rest_head.assign(follower_particles, Vec3::Zero());
+    state.follower_rest_saturation.assign(follower_particles, 0.0);
+    state.follower_rest_key.assign(2 * size_t(model.strandCount() - model.followers.guide_strands),
+                                   0.0);
   }
   state.grid.resize(n, model.strand_offsets);
   state.cohesion_grid.resize(model.cohesion_grid_nodes, n);

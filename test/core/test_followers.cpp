@@ -2,7 +2,8 @@
 // the full simulation, a follower on a guide copies it, rigid hair stays rigid, followers end
 // outside the head and the obstacles, weights are the modified Shepard weights and sum to 1; with
 // the cohesion sums at the guides, a follower on a guide takes its display and the guides'
-// display is unchanged.
+// display is unchanged; the followers' exaggerated rest shapes, held between placements, follow
+// saturation and curl weight changes.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -437,4 +438,55 @@ TEST(Followers, ExaggeratedRestIsTheRestShapeWhenDryAndKeepsEdgeLengthsWhenWet) 
   off.curl.enabled = false;
   exaggeratedRest(m, off.curl, s, sigma.data(), out.data());
   for (int i = 0; i < n; ++i) ASSERT_EQ(out[i], m.rest_position_head[begin + i]);
+}
+
+TEST(Followers, TheHeldRestShapesFollowSaturationAndCurlChanges) {
+  // Each follower's exaggerated rest shape is kept in the state between placements: after a
+  // saturation change (whole groom, one particle of one strand) or a curl weight change the
+  // followers are where a fresh state puts them, to the bit, and the change did move them.
+  SolverConfig c;
+  HairModel m = followerModel(curlyGroom(100), 5, c);
+  const Pose pose;
+  const int first = static_cast<int>(m.strand_offsets[m.followers.guide_strands]);
+  auto placed = [&](const HairModel& model, const SolverConfig& config, HairState* s) {
+    guidesAtRest(model, pose, s);
+    updateFollowers(model, config, pose, nullptr, 0.0, 1, s);
+    return Vec3List(s->position.begin() + first, s->position.end());
+  };
+  auto fresh = [&](const HairModel& model, const SolverConfig& config,
+                   const std::vector<double>& saturation) {
+    HairState f = makeState(model, pose, Twist());
+    f.saturation = saturation;
+    return placed(model, config, &f);
+  };
+  HairState s = makeState(m, pose, Twist());
+  SaturationCommand wet;
+  wet.root_value = 0.5;
+  wet.tip_value = 1.0;
+  applySaturation(m, wet, pose, &s);
+  const Vec3List wet_placed = placed(m, c, &s);
+  ASSERT_EQ(wet_placed, fresh(m, c, s.saturation));
+  ASSERT_EQ(placed(m, c, &s), wet_placed);  // nothing changed: the held shapes
+
+  SaturationCommand drier;
+  drier.root_value = 0.0;
+  drier.tip_value = 0.3;
+  applySaturation(m, drier, pose, &s);
+  const Vec3List drier_placed = placed(m, c, &s);
+  EXPECT_NE(drier_placed, wet_placed);
+  EXPECT_EQ(drier_placed, fresh(m, c, s.saturation));
+
+  const int last = m.particleCount() - 1;  // the tip of the last follower
+  s.saturation[last - 1] = 1.0;
+  const Vec3List one_placed = placed(m, c, &s);
+  EXPECT_NE(one_placed, drier_placed);
+  EXPECT_EQ(one_placed, fresh(m, c, s.saturation));
+
+  SolverConfig curlier = c;
+  curlier.curl.weight_n = 4.0 * c.curl.weight_n;
+  std::string why;
+  ASSERT_TRUE(updateSpringConstants(curlier, &m, &why)) << why;
+  const Vec3List curl_placed = placed(m, curlier, &s);
+  EXPECT_NE(curl_placed, one_placed);
+  EXPECT_EQ(curl_placed, fresh(m, curlier, s.saturation));
 }

@@ -209,6 +209,13 @@ struct HairState {
   Mat3List guide_rotation;
   /// Per guide particle but the last of each guide: its edge's length over its rest length.
   std::vector<double> guide_edge_ratio;
+  /// Per follower particle (empty without followers), head frame: its exaggerated rest position
+  /// (exaggeratedRest) as last computed, with the saturation it was computed at (NaN: none yet),
+  /// and per follower strand the curl and bend constants it was computed with (2 per strand):
+  /// reused while all of them are the same (most frames: the saturation changes with water and
+  /// commands only).
+  Vec3List follower_rest_head;
+  std::vector<double> follower_rest_saturation, follower_rest_key;
   /// Per guide particle, cohesion.gather_at "guides": its display offset p^w - p of eq. (10),
   /// m, world frame, wet or dry (0 isolated): followers take theirs interpolated from these.
   Vec3List guide_clump_offset;
