@@ -2,9 +2,13 @@
 // toward the tips, nodding) with the sphere behind the head of bench_followers, at --strands
 // output strands and follow ratio --follow-ratio, stepped --warm-frames output frames so that the
 // guides have moved; then the same frame's placement timed --runs times on --threads threads.
-// Prints the median and the fastest wall time per follower particle, with the CPU. The machines
-// of docs/followers.md vary by tens of % from minute to minute: compare two builds by running
-// this with their libraries alternately (LD_LIBRARY_PATH), several times each.
+// Prints the median and the fastest wall time per follower particle, with the CPU. The saturation
+// does not change between the runs, so after the first the followers' exaggerated rest shapes
+// are the state's held copies, as on every frame of a scene without water or commands. The
+// machines of docs/followers.md vary by tens of % from minute to minute: compare two builds by
+// running each one's own binary alternately, several times each (another commit built in a git
+// worktree beside this one; swapping only the libraries with LD_LIBRARY_PATH is wrong once
+// HairState's layout differs between the two).
 // usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
 //                                 [--threads T]
 #include <algorithm>

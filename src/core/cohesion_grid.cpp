@@ -50,11 +50,13 @@ inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
 /// Computed from the position by every pass over all particles (a few operations, where storing
 /// them and reading them back in three passes moved 9 doubles per particle through memory): the
 /// same values to the bit as the gathered strands' stored copies (CohesionNodeGrid::rx..tz).
+/// The splat tells its threads' layers apart by nodeCoordinate's z alone: the cell here is
+/// formed by the same function, so both agree on every particle's layer.
 inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
   CellPosition c;
   c.r = p - L.origin;
   for (int a = 0; a < 3; ++a) {
-    const double f = c.r[a] * L.inv_c;
+    const double f = nodeCoordinate(L, p, a);
     c.k[a] = std::floor(f);
     c.t[a] = f - c.k[a];
   }
