@@ -284,16 +284,47 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
   return held;
 }
 
-/// The first stage of placeFollower, particle by particle: each guide carries the follower's
-/// offset from it on the exaggerated rest shapes, turned with its smoothed frame, so rigid
-/// motions and large bends of the guides move the offset with them. No particle depends on
+/// The followers' lanes: 4 strands placed together in doubles, one per lane (AVX2's width).
+using FollowerLane = LaneDouble4;
+constexpr int kFollowerLanes = kLaneWidth<FollowerLane>;
+
+/// A group of followers' per-particle inputs to the edge hold, lane l holding strand l's, carved
+/// from the thread's StrandScratch::lane_buffer: the positions from interpolateFromGuides (head
+/// frame), the least guide edge ratio at each particle's samples, the rest length of the edge
+/// that ends at the particle and the head offset of the particle (the solver's: never pushed
+/// farther out than its rest distance).
+struct FollowerColumns {
+  FollowerLane *x, *y, *z;  ///< the coordinates apart: a copy of a whole V3 went through memory
+  FollowerLane* least_ratio;
+  FollowerLane* rest_length;
+  FollowerLane* head_offset;
+};
+
+FollowerColumns carveFollowerColumns(StrandScratch* scratch) {
+  constexpr size_t kBytes = sizeof(FollowerLane);
+  char* bytes = reinterpret_cast<char*>(scratch->lane_buffer.data());
+  bytes += (kBytes - reinterpret_cast<uintptr_t>(bytes) % kBytes) % kBytes;
+  const size_t n = scratch->lane_capacity;
+  FollowerColumns c;
+  c.x = reinterpret_cast<FollowerLane*>(bytes);
+  c.y = c.x + n;
+  c.z = c.y + n;
+  c.least_ratio = c.z + n;
+  c.rest_length = c.least_ratio + n;
+  c.head_offset = c.rest_length + n;
+  return c;
+}
+
+/// The first stage of placing a follower, particle by particle: each guide carries the
+/// follower's offset from it on the exaggerated rest shapes, turned with its smoothed frame, so
+/// rigid motions and large bends of the guides move the offset with them. No particle depends on
 /// another here, so their work overlaps: interleaved with the edge hold, which runs root to tip,
 /// the placement cost 7-10 % more on the AMD EPYC with AVX2 (10,000 strands, K = 100,
 /// bench_follower_placement), the same on the Xeon with AVX-512. rest holds the strand's
-/// exaggerated rest positions; x receives its head-frame positions and least_ratio the least
-/// guide edge ratio at each particle's samples.
+/// exaggerated rest positions; lane l of the columns receives its head-frame positions and the
+/// least guide edge ratio at each particle's samples.
 void interpolateFromGuides(const HairModel& model, const HairState& state, int s, const Vec3* rest,
-                           Vec3* x, double* least_ratio) {
+                           int l, const FollowerColumns& c) {
   const FollowerMap& f = model.followers;
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const int first = model.strandBegin(f.guide_strands);
@@ -317,76 +348,229 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
       sum += w * (guide + turn[a] * (rest[i] - guide_rest));
       ratio = std::min(ratio, edge_ratio[a]);
     }
-    x[i] = sum;
-    least_ratio[i] = ratio;
+    setLaneValue(&c.x[i], l, sum.x());
+    setLaneValue(&c.y[i], l, sum.y());
+    setLaneValue(&c.z[i], l, sum.z());
+    setLaneValue(&c.least_ratio[i], l, ratio);
   }
 }
 
-/// Places follower strand s (see updateFollowers): its positions from its guides
-/// (interpolateFromGuides), then root to tip the edge hold and the projections out of the head
-/// and the obstacles. `x` and `least_ratio` are per-thread scratch of the strand's size.
-void placeFollower(const HairModel& model, const SolverConfig& config, const Pose& pose,
-                   const Obstacles* obstacles, double dt_s, int s, Vec3* x, double* least_ratio,
-                   HairState* state) {
-  const int begin = model.strandBegin(s), n = model.strandSize(s);
-  const Vec3* rest = followerRest(model, config.curl, s, state);
-  const CollisionConfig& hc = config.collision;
-  const ObstacleCollisionConfig& oc = config.obstacle;
-  bool near_obstacle = false;  // from the rest root: the strand cannot reach farther
-  if (obstacles && oc.enabled && !obstacles->empty()) {
+/// What every follower of one placement shares: the pose (as a matrix, computed once: a
+/// quaternion product per particle cost more), the limits and the obstacles.
+struct PlacementFrame {
+  const HairModel& model;
+  const SolverConfig& config;
+  const Pose& pose;
+  const Obstacles* obstacles;
+  M33<double> rotation;
+  double inverse_dt;
+  template <typename S>
+  V3<S> toWorld(const V3<S>& x) const {
+    return splat33<S>(toEigen(rotation)) * x + splat3<S>(pose.translation);
+  }
+};
+
+/// One follower in a group being placed: its strand, its range and whether an obstacle is within
+/// its reach.
+struct FollowerInGroup {
+  int begin = 0, n = 0;
+  bool near_obstacle = false;
+};
+
+/// The first stage of placing follower strand s in lane l: its exaggerated rest shape, whether
+/// an obstacle is within its reach (from its rest root: the strand cannot reach farther), its
+/// positions from its guides and its edges' inputs to the hold.
+FollowerInGroup startFollower(const PlacementFrame& frame, int s, int l, const FollowerColumns& c,
+                              HairState* state) {
+  const HairModel& model = frame.model;
+  FollowerInGroup f;
+  f.begin = model.strandBegin(s);
+  f.n = model.strandSize(s);
+  const Vec3* rest = followerRest(model, frame.config.curl, s, state);
+  const ObstacleCollisionConfig& oc = frame.config.obstacle;
+  if (frame.obstacles && oc.enabled && !frame.obstacles->empty()) {
     Vec3 normal;
     const double reach = model.strand_length_m[s] + oc.margin_m + oc.offset_m;
-    near_obstacle = obstacles->distance(pose.apply(rest[0]), &normal) <= reach;
+    f.near_obstacle = frame.obstacles->distance(frame.pose.apply(rest[0]), &normal) <= reach;
   }
-  interpolateFromGuides(model, *state, s, rest, x, least_ratio);
-  const double strain_limit = config.stretch.strain_limit;
-  // The pose as a matrix once per strand (a quaternion product per particle cost more).
-  const Mat3 rotation = pose.rotation.toRotationMatrix();
-  auto toWorld = [&](const Vec3& v) { return Vec3(rotation * v + pose.translation); };
-  const double inverse_dt = dt_s > 0.0 ? 1.0 / dt_s : 0.0;
-  DistanceCache head_cache, obstacle_cache;  // head frame; world
-  for (int i = 0; i < n; ++i) {
-    Vec3 world = toWorld(x[i]);  // the root stays where its guides' roots carry it
-    if (i > 0) {
-      // The interpolation keeps no length: where the guides bend or part differently, their
-      // turned offsets stretch and crush the follower's edges (measured to 6x and 1/20 of rest,
-      // 10,000 strands at K = 10). Each edge is held, root to tip, within the solver's strain
-      // limit and compressed no more than 1 - limit or the least of its guides' edges there (a
-      // follower on a guide's root stays the guide's copy); then the projections. A projection can
-      // crush the edge it ends (a particle pushed straight out lands beside the one before it):
-      // while one moves the particle, the edge is held and the particle projected again
-      // (kFollowerHoldRounds).
-      const double rest_length = model.rest_edge_m[begin + i - 1];
-      // The guides' edges between the samples of the edge's two ends: no shorter than theirs.
-      const double shortest =
-          std::min(1.0 - strain_limit, std::min(least_ratio[i], least_ratio[i - 1]));
-      // As the solver: never pushed farther out than the particle's rest distance.
-      const double offset = std::min(hc.offset_m, model.rest_head_distance_m[begin + i]);
-      for (int pass = 0; pass < kFollowerHoldRounds; ++pass) {
-        x[i] += clampEdgeLength(x[i - 1], x[i], shortest * rest_length,
-                                (1.0 + strain_limit) * rest_length);
-        bool moved = hc.head_enabled &&
-                     projectOutOfHead(model.head, offset, hc.offset_m, &head_cache, &x[i]);
-        world = toWorld(x[i]);
-        if (near_obstacle && !obstacle_cache.covers(world)) {
-          Vec3 normal;
-          const double dist = obstacles->distance(world, &normal);
-          // L = 2 bounds the field's Lipschitz constant (sqrt(3), strand_block.h) and the
-          // shapes' 1.
-          obstacle_cache.anchor = world;
-          obstacle_cache.slack = 0.5 * (dist - oc.offset_m) - kFollowerCacheMargin_m;
-          if (dist < oc.offset_m) {
-            world += (oc.offset_m - dist) * normal;
-            x[i] = rotation.transpose() * (world - pose.translation);
-            moved = true;
-          }
-        }
-        if (!moved) break;
+  interpolateFromGuides(model, *state, s, rest, l, c);
+  const double head_offset = frame.config.collision.offset_m;
+  for (int i = 1; i < f.n; ++i) {
+    setLaneValue(&c.rest_length[i], l, model.rest_edge_m[f.begin + i - 1]);
+    setLaneValue(&c.head_offset[i], l,
+                 std::min(head_offset, model.rest_head_distance_m[f.begin + i]));
+  }
+  return f;
+}
+
+/// One follower edge's hold: the particle before (head frame) and the lengths it is held within.
+struct HeldEdge {
+  Vec3 before;
+  double min_length, max_length;
+  double head_offset;  ///< the particle's (FollowerColumns::head_offset)
+};
+
+/// The hold of a follower's edge and the projections of its tip particle x (head frame; its world
+/// position returned). The interpolation keeps no length: where the guides bend or part
+/// differently, their turned offsets stretch and crush the follower's edges (measured to 6x and
+/// 1/20 of rest, 10,000 strands at K = 10). Each edge is held, root to tip, within the solver's
+/// strain limit and compressed no more than 1 - limit or the least of its guides' edges there (a
+/// follower on a guide's root stays the guide's copy); then the projections. A projection can
+/// crush the edge it ends (a particle pushed straight out lands beside the one before it): while
+/// one moves the particle, the edge is held and the particle projected again
+/// (kFollowerHoldRounds). `held`: the first hold is done (by the lanes).
+Vec3 holdAndProject(const PlacementFrame& frame, const HeldEdge& edge, bool near_obstacle,
+                    bool held, DistanceCache* head_cache, DistanceCache* obstacle_cache, Vec3* x) {
+  const CollisionConfig& hc = frame.config.collision;
+  const ObstacleCollisionConfig& oc = frame.config.obstacle;
+  V3<double> world;
+  for (int pass = 0; pass < kFollowerHoldRounds; ++pass) {
+    if (pass > 0 || !held)
+      *x += toEigen(clampEdgeLength(toV3(edge.before), toV3(*x), edge.min_length, edge.max_length));
+    bool moved = hc.head_enabled &&
+                 projectOutOfHead(frame.model.head, edge.head_offset, hc.offset_m, head_cache, x);
+    world = frame.toWorld(toV3(*x));
+    if (near_obstacle && !obstacle_cache->covers(toEigen(world))) {
+      Vec3 normal;
+      const double dist = frame.obstacles->distance(toEigen(world), &normal);
+      // L = 2 bounds the field's Lipschitz constant (sqrt(3), strand_block.h) and the shapes' 1.
+      obstacle_cache->anchor = toEigen(world);
+      obstacle_cache->slack = 0.5 * (dist - oc.offset_m) - kFollowerCacheMargin_m;
+      if (dist < oc.offset_m) {
+        world += toV3((oc.offset_m - dist) * normal);
+        *x = toEigen(frame.rotation).transpose() * (toEigen(world) - frame.pose.translation);
+        moved = true;
       }
     }
-    Vec3& p = state->position[begin + i];
-    state->velocity[begin + i] = inverse_dt * (world - p);
-    p = world;  // last_good_*: the repairs restore guides only; followers are placed anew
+    if (!moved) break;
+  }
+  return toEigen(world);
+}
+
+/// Particle i of each follower of the group where it has one: its world position, and its
+/// velocity over the frame.
+WCH_INLINE void storeFollowerParticles(const PlacementFrame& frame, const FollowerInGroup* group,
+                                       int count, int i, const V3<FollowerLane>& world,
+                                       HairState* state) {
+  for (int l = 0; l < count; ++l) {
+    if (i >= group[l].n) continue;
+    const Vec3 w = lane(world, l);
+    Vec3& p = state->position[group[l].begin + i];
+    state->velocity[group[l].begin + i] = frame.inverse_dt * (w - p);
+    p = w;  // last_good_*: the repairs restore guides only; followers are placed anew
+  }
+}
+
+/// A group's distance caches (DistanceCache) on the lanes: the head's in the head frame, the
+/// obstacles' in the world.
+struct LaneDistanceCaches {
+  V3<FollowerLane> head_anchor = zero3<FollowerLane>(), obstacle_anchor = zero3<FollowerLane>();
+  FollowerLane head_slack = splat<FollowerLane>(-1.0), obstacle_slack = splat<FollowerLane>(-1.0);
+  DistanceCache head(int l) const { return {lane(head_anchor, l), laneValue(head_slack, l)}; }
+  DistanceCache obstacle(int l) const {
+    return {lane(obstacle_anchor, l), laneValue(obstacle_slack, l)};
+  }
+  void set(int l, const DistanceCache& head, const DistanceCache& obstacle) {
+    setLane(&head_anchor, l, head.anchor);
+    setLaneValue(&head_slack, l, head.slack);
+    setLane(&obstacle_anchor, l, obstacle.anchor);
+    setLaneValue(&obstacle_slack, l, obstacle.slack);
+  }
+};
+
+/// The first tests of holdAndProject's projections on the lanes of `lanes`, at head-frame
+/// positions x (world: world) after the first hold: the head's lower bound and the obstacles'
+/// distance where the caches do not cover a lane, the caches updated as projectOutOfHead and
+/// holdAndProject update them. Returns the lanes where a projection may act: there
+/// holdAndProject evaluates again (the caches left empty for it) and projects.
+LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
+                                           const LaneMask<FollowerLane>& lanes,
+                                           const LaneMask<FollowerLane>& near_obstacle,
+                                           const V3<FollowerLane>& x, const V3<FollowerLane>& world,
+                                           const FollowerLane& head_offset,
+                                           LaneDistanceCaches* caches) {
+  using S = FollowerLane;
+  const CollisionConfig& hc = frame.config.collision;
+  const double margin = kFollowerCacheMargin_m;
+  LaneMask<S> possible{};  // none
+  const LaneMask<S> head_test = lanes && distanceNeeded(x, caches->head_anchor, caches->head_slack);
+  if (hc.head_enabled && anyLane(head_test)) {
+    const S bound = frame.model.head.lowerBound(x);
+    const LaneMask<S> near_head =
+        head_test && !(bound >= head_offset + splat<S>(HeadShape::kSurelyMargin_m));
+    caches->head_anchor = select(head_test, x, caches->head_anchor);
+    caches->head_slack =
+        select(head_test, bound - splat<S>(hc.offset_m) - splat<S>(margin), caches->head_slack);
+    caches->head_slack = select(near_head, splat<S>(-1.0), caches->head_slack);
+    possible = possible || near_head;
+  }
+  const LaneMask<S> obstacle_test =
+      lanes && near_obstacle &&
+      distanceNeeded(world, caches->obstacle_anchor, caches->obstacle_slack);
+  if (anyLane(obstacle_test)) {
+    const double offset = frame.config.obstacle.offset_m;
+    V3<S> normal;
+    const S dist = frame.obstacles->distance(world, Vec3::Zero(), obstacle_test, &normal);
+    caches->obstacle_anchor = select(obstacle_test, world, caches->obstacle_anchor);
+    caches->obstacle_slack =
+        select(obstacle_test, splat<S>(0.5) * (dist - splat<S>(offset)) - splat<S>(margin),
+               caches->obstacle_slack);
+    possible = possible || (obstacle_test && dist < splat<S>(offset));
+  }
+  return possible;
+}
+
+/// Places follower strands [first, first + count), count <= kFollowerLanes, one per lane (see
+/// updateFollowers): each one's positions from its guides (startFollower), then root to tip the
+/// edge hold on the lanes. The hold waits for the particle before (a square root and a division),
+/// so one strand at a time spent most of its time waiting; the lanes hold 4 strands' edges at
+/// once. Where a projection could act on a lane (the distance caches do not cover it), that
+/// lane's projections run alone (holdAndProject, as do the later rounds). The root stays where
+/// its guides' roots carry it.
+void placeFollowers(const PlacementFrame& frame, int first, int count, const FollowerColumns& c,
+                    HairState* state) {
+  using S = FollowerLane;
+  FollowerInGroup group[kFollowerLanes];
+  S strand_size = splat<S>(0.0), near_obstacle = splat<S>(0.0);
+  int longest = 0;
+  for (int l = 0; l < count; ++l) {
+    group[l] = startFollower(frame, first + l, l, c, state);
+    setLaneValue(&strand_size, l, group[l].n);
+    setLaneValue(&near_obstacle, l, group[l].near_obstacle ? 1.0 : 0.0);
+    longest = std::max(longest, group[l].n);
+  }
+  const double strain_limit = frame.config.stretch.strain_limit;
+  const LaneMask<S> near = near_obstacle > splat<S>(0.0);
+  LaneDistanceCaches caches;
+  V3<S> before{c.x[0], c.y[0], c.z[0]};
+  S ratio_before = c.least_ratio[0];
+  storeFollowerParticles(frame, group, count, 0, frame.toWorld(before), state);
+  for (int i = 1; i < longest; ++i) {
+    V3<S> x{c.x[i], c.y[i], c.z[i]};
+    const S ratio = c.least_ratio[i];
+    // The guides' edges between the samples of the edge's two ends: no shorter than theirs.
+    const S min_length =
+        vmin(splat<S>(1.0 - strain_limit), vmin(ratio, ratio_before)) * c.rest_length[i];
+    const S max_length = splat<S>(1.0 + strain_limit) * c.rest_length[i];
+    x += clampEdgeLength(before, x, min_length, max_length);
+    V3<S> world = frame.toWorld(x);
+    const LaneMask<S> on = splat<S>(i) < strand_size;
+    patchLanes(
+        projectionsPossible(frame, on, near, x, world, c.head_offset[i], &caches), [&](int l) {
+          const HeldEdge edge{lane(before, l), laneValue(min_length, l), laneValue(max_length, l),
+                              laneValue(c.head_offset[i], l)};
+          DistanceCache head = caches.head(l), obstacle = caches.obstacle(l);
+          Vec3 xl = lane(x, l);
+          setLane(&world, l,
+                  holdAndProject(frame, edge, group[l].near_obstacle, true, &head, &obstacle, &xl));
+          setLane(&x, l, xl);
+          caches.set(l, head, obstacle);
+        });
+    storeFollowerParticles(frame, group, count, i, world, state);
+    // Coordinate by coordinate: GCC copied the whole V3 through memory in halves, and the loads of
+    // whole lanes that followed waited for them.
+    before.x = x.x, before.y = x.y, before.z = x.z;
+    ratio_before = ratio;
   }
 }
 
@@ -432,13 +616,20 @@ void updateFollowers(const HairModel& model, const SolverConfig& config, const P
       state->guide_edge_ratio[begin + i] = (x[i + 1] - x[i]).norm() / model.rest_edge_m[begin + i];
     }
   });
+  const PlacementFrame frame{model,
+                             config,
+                             pose,
+                             obstacles,
+                             toM33(pose.rotation.toRotationMatrix()),
+                             dt_s > 0.0 ? 1.0 / dt_s : 0.0};
   const int followers = model.strandCount() - f.guide_strands;
-  detail::parallelFor(threads, detail::Schedule::kDynamic, 16, followers, [&](int k) {
-    // Per-strand scratch of the diagnostics and the stepper, free after the step: bend_p holds
-    // the follower's positions, velocity_factor its least guide edge ratios.
-    StrandScratch& scratch = state->scratch[detail::threadIndex()];
-    placeFollower(model, config, pose, obstacles, dt_s, f.guide_strands + k, scratch.bend_p.data(),
-                  scratch.velocity_factor.data(), state);
+  const int groups = (followers + kFollowerLanes - 1) / kFollowerLanes;
+  detail::parallelFor(threads, detail::Schedule::kDynamic, 4, groups, [&](int group) {
+    // The stepper's lane storage, free after the step, holds the group's columns.
+    const FollowerColumns columns = carveFollowerColumns(&state->scratch[detail::threadIndex()]);
+    const int first = group * kFollowerLanes;
+    placeFollowers(frame, f.guide_strands + first, std::min(kFollowerLanes, followers - first),
+                   columns, state);
   });
 }
 

@@ -3,10 +3,12 @@
 // outside the head and the obstacles, weights are the modified Shepard weights and sum to 1; with
 // the cohesion sums at the guides, a follower on a guide takes its display and the guides'
 // display is unchanged; the followers' exaggerated rest shapes, held between placements, follow
-// saturation and curl weight changes.
+// saturation and curl weight changes; a follower's placement does not depend on the strands
+// beside it in the SIMD lanes.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <random>
 
 #include "wet_curly_hair/core/followers.h"
@@ -489,4 +491,75 @@ TEST(Followers, TheHeldRestShapesFollowSaturationAndCurlChanges) {
   const Vec3List curl_placed = placed(m, curlier, &s);
   EXPECT_NE(curl_placed, one_placed);
   EXPECT_EQ(curl_placed, fresh(m, curlier, s.saturation));
+}
+
+TEST(Followers, AFollowerIsPlacedAloneWhateverItsNeighboursInTheLanes) {
+  // The followers are placed in groups of 4, one per SIMD lane, strands of different lengths
+  // together. 41 strands cut to 6-30 particles, and the same with strands 1-40 in reverse order
+  // (the same guides, by farthest-point sampling from strand 0, but every follower beside other
+  // ones): guides pushed 2 cm into the head but for their roots, the head turned, a sphere in
+  // the hair. Each follower
+  // must land where it landed among its first neighbours, to the bit, and outside the head and
+  // the sphere at every particle, up to the tip of the longest.
+  const Groom full = curlyGroom(41);
+  Groom cut, reversed;
+  auto add = [&](Groom* g, int src) {
+    const int n = 6 + (src * 7) % 25;
+    g->points.insert(g->points.end(), full.points.begin() + full.strand_offsets[src],
+                     full.points.begin() + full.strand_offsets[src] + n);
+    g->strand_offsets.push_back(static_cast<uint32_t>(g->points.size()));
+    g->root_normals.push_back(full.root_normals[src]);
+  };
+  for (int src = 0; src < 41; ++src) add(&cut, src);
+  add(&reversed, 0);
+  for (int src = 40; src >= 1; --src) add(&reversed, src);
+  const SolverConfig c;
+  Pose pose;
+  pose.rotation = Quat(Eigen::AngleAxisd(0.3, Vec3(0.2, 1.0, -0.4).normalized()));
+  pose.translation = Vec3(0.02, -0.01, 0.03);
+  Obstacles obstacles;
+  AnalyticObstacle sphere;  // 2 cm above the scalp: its projection cannot push into the head
+  sphere.center_m = pose.apply(Vec3(0.0, 0.0, 0.17));
+  sphere.radius_m = 0.04;
+  obstacles.analytic.push_back(sphere);
+  // Source strand -> its placed world positions.
+  auto place = [&](const Groom& g, int* near_sphere) {
+    const HairModel m = followerModel(g, 4, c);
+    HairState s = makeState(m, pose, Twist());
+    for (int g = 0; g < m.followers.guide_strands; ++g) {
+      for (int i = m.strandBegin(g); i < m.strandBegin(g) + m.strandSize(g); ++i) {
+        Vec3 normal;
+        m.head.distance(m.rest_position_head[i], &normal);
+        const double depth = i > m.strandBegin(g) ? 0.02 : 0.0;  // the roots on the scalp
+        s.position[i] = pose.apply(m.rest_position_head[i] - depth * normal);
+      }
+    }
+    updateFollowers(m, c, pose, &obstacles, kFrame, 2, &s);
+    std::map<int, Vec3List> placed;
+    for (int st = m.followers.guide_strands; st < m.strandCount(); ++st) {
+      const int begin = m.strandBegin(st), n = m.strandSize(st);
+      placed[m.followers.source_strand[st]] =
+          Vec3List(s.position.begin() + begin, s.position.begin() + begin + n);
+      for (int i = begin + 1; i < begin + n; ++i) {
+        Vec3 normal;
+        const double offset = std::min(c.collision.offset_m, m.rest_head_distance_m[i]);
+        EXPECT_GE(m.head.distance(pose.applyInverse(s.position[i]), &normal), offset - 1e-12)
+            << st << " " << i - begin << " of " << n;
+        EXPECT_GE(obstacles.distance(s.position[i], &normal), c.obstacle.offset_m - 1e-12);
+        *near_sphere += (s.position[i] - sphere.center_m).norm() < sphere.radius_m + 0.01;
+      }
+    }
+    return placed;
+  };
+  int near_sphere = 0, near_sphere_reversed = 0;
+  const std::map<int, Vec3List> first = place(cut, &near_sphere);
+  const std::map<int, Vec3List> second = place(reversed, &near_sphere_reversed);
+  ASSERT_EQ(first.size(), 30u);  // 41 strands at K = 4: 11 guides
+  for (const auto& [src, positions] : first) {
+    // reversed's strand k > 0 is cut's strand 41 - k
+    const auto other = second.find(src == 0 ? 0 : 41 - src);
+    ASSERT_NE(other, second.end()) << "the guides differ: the test proves nothing";
+    EXPECT_EQ(positions, other->second) << "source strand " << src;
+  }
+  EXPECT_GT(near_sphere, 0) << "the sphere is out of reach: the test proves nothing";
 }

@@ -142,15 +142,19 @@ struct HeadShape {
     return d;
   }
   /// The lower bound of distance() at x (its lower_bound), without the ellipsoid's divisions.
-  double lowerBound(const Vec3& x) const {
-    const Vec3 q = (x - ellipsoid.center_m).cwiseProduct(ellipsoid.radii_m.cwiseInverse());
-    double bound = ellipsoidDistanceLowerBound(ellipsoid, q.norm());
+  template <typename S>
+  WCH_INLINE S lowerBound(const V3<S>& x) const {
+    const V3<S> d = x - splat3<S>(ellipsoid.center_m);
+    const V3<S> inv_r = splat3<S>(ellipsoid.radii_m.cwiseInverse());
+    const V3<S> q = {d.x * inv_r.x, d.y * inv_r.y, d.z * inv_r.z};
+    S bound = ellipsoidDistanceLowerBound(ellipsoid, vsqrt(dot(q, q)));
     for (const CapsuleShape& c : capsules) {
-      Vec3 n;
-      bound = std::min(bound, capsuleDistance(c, x, &n));
+      V3<S> n;
+      bound = vmin(bound, capsuleDistance(c, x, &n));
     }
     return bound;
   }
+  double lowerBound(const Vec3& x) const { return lowerBound(toV3(x)); }
   /// Whether distance(x) >= d for sure: lowerBound. 1 nm of margin covers the round-off of the
   /// bound, so a true answer never hides a contact; false says nothing.
   bool surelyFartherThan(const Vec3& x, double d) const {
