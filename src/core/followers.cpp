@@ -329,44 +329,50 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const int first = model.strandBegin(f.guide_strands);
   const int k = s - f.guide_strands;
-  const Vec3* xg = state.guide_position_head.data();
-  const Vec3* rg = state.guide_rest_head.data();
-  const Mat3* turn = state.guide_rotation.data();
-  const double* edge_ratio = state.guide_edge_ratio.data();
+  const GuideEdgeCarry* carry = state.guide_edge_carry.data();
   const double* weight = &f.weight[static_cast<size_t>(k) * kFollowerGuides];
   for (int i = 0; i < n; ++i) {
-    Vec3 sum = Vec3::Zero();
+    const V3<double> offset = toV3(rest[i]);
+    V3<double> sum = zero3<double>();
     double ratio = 1.0;
     const size_t e0 = static_cast<size_t>(begin + i - first) * kFollowerGuides;
     for (int g = 0; g < kFollowerGuides; ++g) {
       const double w = weight[g];
       if (w == 0.0) continue;
-      const uint32_t a = f.sample_index[e0 + g];
+      const GuideEdgeCarry& e = carry[f.sample_index[e0 + g]];
       const double t = f.sample_fraction[e0 + g];
-      const Vec3 guide = (1.0 - t) * xg[a] + t * xg[a + 1];
-      const Vec3 guide_rest = (1.0 - t) * rg[a] + t * rg[a + 1];
-      sum += w * (guide + turn[a] * (rest[i] - guide_rest));
-      ratio = std::min(ratio, edge_ratio[a]);
+      sum += w * ((1.0 - t) * e.from + t * e.to + e.turn * offset);
+      ratio = std::min(ratio, e.edge_ratio);
     }
-    setLaneValue(&c.x[i], l, sum.x());
-    setLaneValue(&c.y[i], l, sum.y());
-    setLaneValue(&c.z[i], l, sum.z());
+    setLaneValue(&c.x[i], l, sum.x);
+    setLaneValue(&c.y[i], l, sum.y);
+    setLaneValue(&c.z[i], l, sum.z);
     setLaneValue(&c.least_ratio[i], l, ratio);
   }
 }
 
 /// What every follower of one placement shares: the pose (as a matrix, computed once: a
-/// quaternion product per particle cost more), the limits and the obstacles.
+/// quaternion product per particle cost more; and on the lanes), the limits and the obstacles.
 struct PlacementFrame {
+  PlacementFrame(const HairModel& m, const SolverConfig& c, const Pose& p, const Obstacles* o,
+                 double dt_s)
+      : model(m), config(c), pose(p), obstacles(o), inverse_dt(dt_s > 0.0 ? 1.0 / dt_s : 0.0) {
+    const Mat3 r = pose.rotation.toRotationMatrix();
+    rotation = splat33<double>(r);
+    rotation_lanes = splat33<FollowerLane>(r);
+    translation_lanes = splat3<FollowerLane>(pose.translation);
+  }
   const HairModel& model;
   const SolverConfig& config;
   const Pose& pose;
   const Obstacles* obstacles;
-  M33<double> rotation;
   double inverse_dt;
-  template <typename S>
-  V3<S> toWorld(const V3<S>& x) const {
-    return splat33<S>(toEigen(rotation)) * x + splat3<S>(pose.translation);
+  M33<double> rotation;
+  M33<FollowerLane> rotation_lanes;  ///< splat once: the hold transforms every particle
+  V3<FollowerLane> translation_lanes;
+  V3<double> toWorld(const V3<double>& x) const { return rotation * x + toV3(pose.translation); }
+  V3<FollowerLane> toWorld(const V3<FollowerLane>& x) const {
+    return rotation_lanes * x + translation_lanes;
   }
 };
 
@@ -611,17 +617,17 @@ void updateFollowers(const HairModel& model, const SolverConfig& config, const P
     Mat3* frames = scratch.frame.data();
     smoothedFrames(x, n, model.root_frame_head[g], model.beta_core[g], scratch.smooth_bend.data(),
                    frames);
+    const Vec3* rest = &state->guide_rest_head[begin];
     for (int i = 0; i + 1 < n; ++i) {
-      state->guide_rotation[begin + i] = frames[i] * f.guide_rest_frame[begin + i].transpose();
-      state->guide_edge_ratio[begin + i] = (x[i + 1] - x[i]).norm() / model.rest_edge_m[begin + i];
+      GuideEdgeCarry& carry = state->guide_edge_carry[begin + i];
+      const Mat3 turn = frames[i] * f.guide_rest_frame[begin + i].transpose();
+      carry.turn = toM33(turn);
+      carry.from = toV3(x[i] - turn * rest[i]);
+      carry.to = toV3(x[i + 1] - turn * rest[i + 1]);
+      carry.edge_ratio = (x[i + 1] - x[i]).norm() / model.rest_edge_m[begin + i];
     }
   });
-  const PlacementFrame frame{model,
-                             config,
-                             pose,
-                             obstacles,
-                             toM33(pose.rotation.toRotationMatrix()),
-                             dt_s > 0.0 ? 1.0 / dt_s : 0.0};
+  const PlacementFrame frame(model, config, pose, obstacles, dt_s);
   const int followers = model.strandCount() - f.guide_strands;
   const int groups = (followers + kFollowerLanes - 1) / kFollowerLanes;
   detail::parallelFor(threads, detail::Schedule::kDynamic, 4, groups, [&](int group) {

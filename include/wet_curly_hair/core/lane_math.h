@@ -80,6 +80,14 @@ WCH_INLINE void setLaneValue(S* x, int l, double value) {
 WCH_INLINE bool anyLane(bool m) { return m; }
 template <typename M, typename = std::enable_if_t<!std::is_same<M, bool>::value>>
 WCH_INLINE bool anyLane(const M& m) {
+#if defined(__AVX__)
+  // One test of the whole register; the lane by lane OR below extracts every lane.
+  if constexpr (sizeof(M) == 32) {
+    __m256i bits;
+    std::memcpy(&bits, &m, 32);
+    return !_mm256_testz_si256(bits, bits);
+  }
+#endif
   std::decay_t<decltype(m[0])> r = 0;
   for (int l = 0; l < static_cast<int>(sizeof(M) / sizeof(m[0])); ++l) r |= m[l];
   return r != 0;

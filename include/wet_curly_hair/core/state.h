@@ -5,6 +5,7 @@
 #include <limits>
 #include <vector>
 
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/types.h"
 
@@ -24,6 +25,17 @@ struct WarningStats {
   /// the groom's density; hair_contact.cpp).
   uint64_t hair_contact_overflows = 0;
   uint64_t total() const { return nonfinite_repairs + strain_repairs; }
+};
+
+/// One guide edge as its followers read it (followers.cpp, interpolateFromGuides), head frame,
+/// together so that a follower sample reads two cache lines: the rotation of the edge's smoothed
+/// frame from rest, its ends' positions less their exaggerated rest positions so rotated (a
+/// follower sample at fraction t carries its rest offset r to the mix of from and to plus turn r),
+/// m, and its length over its rest length.
+struct GuideEdgeCarry {
+  M33<double> turn;
+  V3<double> from, to;
+  double edge_ratio;
 };
 
 /// Scratch space for one strand, sized once for the longest strand.
@@ -203,12 +215,11 @@ struct HairState {
   Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
   std::vector<double> density;  ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
   Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
-  /// Per guide particle (followers.h; empty without followers), head frame: its position, its
-  /// exaggerated rest position (m), and the rotation of its edge's smoothed frame from rest.
+  /// Per guide particle (followers.h; empty without followers), head frame: its position and its
+  /// exaggerated rest position, m.
   Vec3List guide_position_head, guide_rest_head;
-  Mat3List guide_rotation;
-  /// Per guide particle but the last of each guide: its edge's length over its rest length.
-  std::vector<double> guide_edge_ratio;
+  /// Per guide particle but the last of each guide: what a follower sample on its edge reads.
+  std::vector<GuideEdgeCarry> guide_edge_carry;
   /// Per follower particle (empty without followers), head frame: its exaggerated rest position
   /// (exaggeratedRest) as last computed, with the saturation it was computed at (NaN: none yet),
   /// and per follower strand the curl and bend constants it was computed with (2 per strand):
