@@ -325,25 +325,17 @@ FollowerColumns carveFollowerColumns(StrandScratch* scratch) {
 /// least guide edge ratio at each particle's samples.
 void interpolateFromGuides(const HairModel& model, const HairState& state, int s, const Vec3* rest,
                            int l, const FollowerColumns& c) {
-  const FollowerMap& f = model.followers;
   const int begin = model.strandBegin(s), n = model.strandSize(s);
-  const int first = model.strandBegin(f.guide_strands);
-  const int k = s - f.guide_strands;
   const GuideEdgeCarry* carry = state.guide_edge_carry.data();
-  const double* weight = &f.weight[static_cast<size_t>(k) * kFollowerGuides];
   for (int i = 0; i < n; ++i) {
     const V3<double> offset = toV3(rest[i]);
     V3<double> sum = zero3<double>();
     double ratio = 1.0;
-    const size_t e0 = static_cast<size_t>(begin + i - first) * kFollowerGuides;
-    for (int g = 0; g < kFollowerGuides; ++g) {
-      const double w = weight[g];
-      if (w == 0.0) continue;
-      const GuideEdgeCarry& e = carry[f.sample_index[e0 + g]];
-      const double t = f.sample_fraction[e0 + g];
+    forEachGuideSample(model, s, begin + i, [&](uint32_t a, double w, double t) {
+      const GuideEdgeCarry& e = carry[a];
       sum += w * ((1.0 - t) * e.from + t * e.to + e.turn * offset);
       ratio = std::min(ratio, e.edge_ratio);
-    }
+    });
     setLaneValue(&c.x[i], l, sum.x);
     setLaneValue(&c.y[i], l, sum.y);
     setLaneValue(&c.z[i], l, sum.z);
@@ -592,10 +584,13 @@ int displayFollowersFromGuides(const HairModel& model, HairState* state, int thr
     int moved = 0;
     for (int i = begin; i < begin + model.strandSize(s); ++i) {
       if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
-      Vec3 d = Vec3::Zero();
-      forEachGuideSample(model, s, i, [&](uint32_t a, double w) { d += w * offset[a]; });
-      if (d == Vec3::Zero()) continue;  // every guide sample isolated: p^w = p (A13)
-      state->wet_position[i] = state->position[i] + d;
+      V3<double> d = zero3<double>();
+      forEachGuideSample(model, s, i, [&](uint32_t a, double w, double t) {
+        d += w * ((1.0 - t) * toV3(offset[a]) + t * toV3(offset[a + 1]));
+      });
+      // Every guide sample isolated: p^w = p (A13).
+      if (d.x == 0.0 && d.y == 0.0 && d.z == 0.0) continue;
+      state->wet_position[i] = state->position[i] + toEigen(d);
       ++moved;
     }
     return moved;

@@ -7,6 +7,7 @@
 
 #include "wet_curly_hair/core/config.h"
 #include "wet_curly_hair/core/groom.h"
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/obstacles.h"
 #include "wet_curly_hair/core/state.h"
@@ -47,12 +48,12 @@ bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int 
 void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
                      Vec3* out);
 
-/// Calls fn(a, w) for the guide particles a that follower particle i (global index, of follower
-/// strand s) is interpolated from, with their weights w (summing to 1): each guide's weight
-/// shared linearly between the two particles around the follower's normalized arc length, as
-/// updateFollowers places it.
+/// Calls fn(a, w, t) for each guide sample of follower particle i (global index, of follower
+/// strand s): the guide's weight w (the weights sum to 1) and the guide edge from particle a to
+/// a + 1 on which the follower's normalized arc length falls, at fraction t, as updateFollowers
+/// places it. A sample stands for weight w (1 - t) at a and w t at a + 1.
 template <typename Fn>
-void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
+WCH_INLINE void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
   const FollowerMap& f = model.followers;
   const size_t k = static_cast<size_t>(s - f.guide_strands) * kFollowerGuides;
   const size_t e0 = static_cast<size_t>(i - static_cast<int>(model.strandBegin(f.guide_strands))) *
@@ -60,10 +61,7 @@ void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
   for (int g = 0; g < kFollowerGuides; ++g) {
     const double w = f.weight[k + g];
     if (w == 0.0) continue;
-    const uint32_t a = f.sample_index[e0 + g];
-    const double t = f.sample_fraction[e0 + g];
-    fn(a, w * (1.0 - t));
-    if (t != 0.0) fn(a + 1, w * t);
+    fn(f.sample_index[e0 + g], w, f.sample_fraction[e0 + g]);
   }
 }
 
