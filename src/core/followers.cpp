@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "parallel.h"
@@ -274,7 +275,8 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
   double* key = &state->follower_rest_key[f];
   Vec3* held = &state->follower_rest_head[k];
   bool same = key[0] == kw && key[1] == kb;
-  for (int i = 0; i < n && same; ++i) same = held_sigma[i] == sigma[i];
+  // Bit for bit (a vector compare): a zero of the other sign computes the shape again, the same.
+  same = same && std::memcmp(held_sigma, sigma, n * sizeof(double)) == 0;
   if (!same) {
     exaggeratedRest(model, curl, s, sigma, held);
     std::copy_n(sigma, n, held_sigma);
