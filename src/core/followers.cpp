@@ -370,7 +370,7 @@ struct PlacementFrame {
   }
 };
 
-/// One follower in a group being placed: its strand, its range and whether an obstacle is within
+/// One follower in a group being placed: its range of particles and whether an obstacle is within
 /// its reach.
 struct FollowerInGroup {
   int begin = 0, n = 0;
@@ -418,14 +418,14 @@ struct HeldEdge {
 /// follower on a guide's root stays the guide's copy); then the projections. A projection can
 /// crush the edge it ends (a particle pushed straight out lands beside the one before it): while
 /// one moves the particle, the edge is held and the particle projected again
-/// (kFollowerHoldRounds). `held`: the first hold is done (by the lanes).
+/// (kFollowerHoldRounds). x arrives held once (on the lanes, placeFollowers).
 Vec3 holdAndProject(const PlacementFrame& frame, const HeldEdge& edge, bool near_obstacle,
-                    bool held, DistanceCache* head_cache, DistanceCache* obstacle_cache, Vec3* x) {
+                    DistanceCache* head_cache, DistanceCache* obstacle_cache, Vec3* x) {
   const CollisionConfig& hc = frame.config.collision;
   const ObstacleCollisionConfig& oc = frame.config.obstacle;
   V3<double> world;
   for (int pass = 0; pass < kFollowerHoldRounds; ++pass) {
-    if (pass > 0 || !held)
+    if (pass > 0)
       *x += toEigen(clampEdgeLength(toV3(edge.before), toV3(*x), edge.min_length, edge.max_length));
     bool moved = hc.head_enabled &&
                  projectOutOfHead(frame.model.head, edge.head_offset, hc.offset_m, head_cache, x);
@@ -522,11 +522,11 @@ LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
 
 /// Places follower strands [first, first + count), count <= kFollowerLanes, one per lane (see
 /// updateFollowers): each one's positions from its guides (startFollower), then root to tip the
-/// edge hold on the lanes. The hold waits for the particle before (a square root and a division),
-/// so one strand at a time spent most of its time waiting; the lanes hold 4 strands' edges at
-/// once. Where a projection could act on a lane (the distance caches do not cover it), that
-/// lane's projections run alone (holdAndProject, as do the later rounds). The root stays where
-/// its guides' roots carry it.
+/// edge hold on the lanes, each instruction holding 4 strands' edges and testing their distance
+/// caches (one strand at a time, the placement ran about 400 instructions per particle; running
+/// 4 strands' scalar holds in turn, to overlap their chains, gained nothing). Where a projection
+/// may act on a lane, that lane's projections run alone (holdAndProject, as do the later rounds).
+/// The root stays where its guides' roots carry it.
 void placeFollowers(const PlacementFrame& frame, int first, int count, const FollowerColumns& c,
                     HairState* state) {
   using S = FollowerLane;
@@ -562,7 +562,7 @@ void placeFollowers(const PlacementFrame& frame, int first, int count, const Fol
           DistanceCache head = caches.head(l), obstacle = caches.obstacle(l);
           Vec3 xl = lane(x, l);
           setLane(&world, l,
-                  holdAndProject(frame, edge, group[l].near_obstacle, true, &head, &obstacle, &xl));
+                  holdAndProject(frame, edge, group[l].near_obstacle, &head, &obstacle, &xl));
           setLane(&x, l, xl);
           caches.set(l, head, obstacle);
         });
