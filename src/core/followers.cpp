@@ -237,17 +237,35 @@ constexpr double kFollowerCacheMargin_m = 1e-9;
 /// seen (the rounds after the first run only where a projection acted).
 constexpr int kFollowerHoldRounds = 6;
 
+/// The head cache's rule, from the head's lower bound at a particle (projectOutOfHead, and on the
+/// lanes projectionsPossible): the slack the cache keeps (the bound is 1-Lipschitz, and no
+/// particle of the strand is pushed out farther than max_offset) and whether a projection to
+/// `offset` may act; then the cache is left empty, so that the projection evaluates again.
+template <typename S>
+WCH_INLINE LaneMask<S> headMayAct(const S& bound, const S& offset, double max_offset, S* slack) {
+  const LaneMask<S> may_act = !(bound >= offset + splat<S>(HeadShape::kSurelyMargin_m));
+  *slack = select(may_act, splat<S>(-1.0),
+                  bound - splat<S>(max_offset) - splat<S>(kFollowerCacheMargin_m));
+  return may_act;
+}
+
+/// The obstacle cache's rule, from the obstacles' distance at a particle (holdAndProject, and on
+/// the lanes projectionsPossible): the slack (L = 2 bounds the field's Lipschitz constant,
+/// sqrt(3) in strand_block.h, and the shapes' 1) and whether the projection to `offset` acts.
+template <typename S>
+WCH_INLINE LaneMask<S> obstacleActs(const S& dist, double offset, S* slack) {
+  *slack = splat<S>(0.5) * (dist - splat<S>(offset)) - splat<S>(kFollowerCacheMargin_m);
+  return dist < splat<S>(offset);
+}
+
 /// Pushes head-frame point x out of the head to `offset` (the solver's rule; at most
 /// max_offset for every particle of the strand). Returns whether it moved.
 bool projectOutOfHead(const HeadShape& head, double offset, double max_offset, DistanceCache* cache,
                       Vec3* x) {
   // Most of a hanging strand is far from the head: the cached 1-Lipschitz bound skips it.
   if (cache->covers(*x)) return false;
-  const double bound = head.lowerBound(*x);
   cache->anchor = *x;
-  cache->slack = bound - max_offset - kFollowerCacheMargin_m;
-  if (bound >= offset + HeadShape::kSurelyMargin_m) return false;
-  cache->slack = -1.0;
+  if (!headMayAct(head.lowerBound(*x), offset, max_offset, &cache->slack)) return false;
   bool moved = false;
   // The ellipsoid's distance is approximate off its surface: a deep particle lands short of the
   // offset after one projection, so project again (at most a few times).
@@ -433,10 +451,8 @@ Vec3 holdAndProject(const PlacementFrame& frame, const HeldEdge& edge, bool near
     if (near_obstacle && !obstacle_cache->covers(toEigen(world))) {
       Vec3 normal;
       const double dist = frame.obstacles->distance(toEigen(world), &normal);
-      // L = 2 bounds the field's Lipschitz constant (sqrt(3), strand_block.h) and the shapes' 1.
       obstacle_cache->anchor = toEigen(world);
-      obstacle_cache->slack = 0.5 * (dist - oc.offset_m) - kFollowerCacheMargin_m;
-      if (dist < oc.offset_m) {
+      if (obstacleActs(dist, oc.offset_m, &obstacle_cache->slack)) {
         world += toV3((oc.offset_m - dist) * normal);
         *x = toEigen(frame.rotation).transpose() * (toEigen(world) - frame.pose.translation);
         moved = true;
@@ -491,31 +507,27 @@ LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
                                            LaneDistanceCaches* caches) {
   using S = FollowerLane;
   const CollisionConfig& hc = frame.config.collision;
-  const double margin = kFollowerCacheMargin_m;
   LaneMask<S> possible{};  // none
   const LaneMask<S> head_test = lanes && distanceNeeded(x, caches->head_anchor, caches->head_slack);
   if (hc.head_enabled && anyLane(head_test)) {
-    const S bound = frame.model.head.lowerBound(x);
-    const LaneMask<S> near_head =
-        head_test && !(bound >= head_offset + splat<S>(HeadShape::kSurelyMargin_m));
+    S slack;
+    const LaneMask<S> may_act =
+        headMayAct(frame.model.head.lowerBound(x), head_offset, hc.offset_m, &slack);
     caches->head_anchor = select(head_test, x, caches->head_anchor);
-    caches->head_slack =
-        select(head_test, bound - splat<S>(hc.offset_m) - splat<S>(margin), caches->head_slack);
-    caches->head_slack = select(near_head, splat<S>(-1.0), caches->head_slack);
-    possible = possible || near_head;
+    caches->head_slack = select(head_test, slack, caches->head_slack);
+    possible = possible || (head_test && may_act);
   }
   const LaneMask<S> obstacle_test =
       lanes && near_obstacle &&
       distanceNeeded(world, caches->obstacle_anchor, caches->obstacle_slack);
   if (anyLane(obstacle_test)) {
-    const double offset = frame.config.obstacle.offset_m;
     V3<S> normal;
     const S dist = frame.obstacles->distance(world, Vec3::Zero(), obstacle_test, &normal);
+    S slack;
+    const LaneMask<S> acts = obstacleActs(dist, frame.config.obstacle.offset_m, &slack);
     caches->obstacle_anchor = select(obstacle_test, world, caches->obstacle_anchor);
-    caches->obstacle_slack =
-        select(obstacle_test, splat<S>(0.5) * (dist - splat<S>(offset)) - splat<S>(margin),
-               caches->obstacle_slack);
-    possible = possible || (obstacle_test && dist < splat<S>(offset));
+    caches->obstacle_slack = select(obstacle_test, slack, caches->obstacle_slack);
+    possible = possible || (obstacle_test && acts);
   }
   return possible;
 }

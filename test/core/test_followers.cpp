@@ -563,3 +563,22 @@ TEST(Followers, AFollowerIsPlacedAloneWhateverItsNeighboursInTheLanes) {
   }
   EXPECT_GT(near_sphere, 0) << "the sphere is out of reach: the test proves nothing";
 }
+
+TEST(Followers, AFreshStateHoldsNoRestShapeYet) {
+  // Dry, no curl weight and no bending stiffness: saturations and constants all zero, as the held
+  // rest shapes' records would be if a fresh state left them at zero (resetState marks them
+  // empty). The first placement must compute the shapes, not read the state's empty ones:
+  // followers of guides at rest sit at rest.
+  SolverConfig c;
+  c.curl.enabled = false;
+  c.bend.stiffness_n_m2 = 0.0;
+  c.gravity_m_s2.setZero();
+  const HairModel m = followerModel(curlyGroom(40), 4, c);
+  ASSERT_EQ(m.bend_k[m.followers.guide_strands], 0.0);
+  const Pose pose;
+  HairState s = makeState(m, pose, Twist());
+  guidesAtRest(m, pose, &s);
+  updateFollowers(m, c, pose, nullptr, 0.0, 1, &s);
+  for (int i = m.strand_offsets[m.followers.guide_strands]; i < m.particleCount(); ++i)
+    ASSERT_LT((s.position[i] - m.rest_position_head[i]).norm(), 1e-12) << i;
+}
