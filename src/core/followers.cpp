@@ -308,6 +308,14 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
 using FollowerLane = LaneDouble4;
 constexpr int kFollowerLanes = kLaneWidth<FollowerLane>;
 
+/// x, y, z and a spare of one guide edge's carry (GuideEdgeCarry) in one register.
+typedef double CarryQuad __attribute__((vector_size(32)));
+WCH_INLINE CarryQuad loadQuad(const double* a) {
+  CarryQuad q;
+  std::memcpy(&q, a, sizeof q);
+  return q;
+}
+
 /// A group of followers' per-particle inputs to the edge hold, lane l holding strand l's, carved
 /// from the thread's StrandScratch::lane_buffer: the positions from interpolateFromGuides (head
 /// frame), the least guide edge ratio at each particle's samples, the rest length of the edge
@@ -348,19 +356,35 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const GuideEdgeCarry* carry = state.guide_edge_carry.data();
   for (int i = 0; i < n; ++i) {
-    const V3<double> offset = toV3(rest[i]);
-    V3<double> sum = zero3<double>();
+    const CarryQuad ox = splat<CarryQuad>(rest[i].x()), oy = splat<CarryQuad>(rest[i].y()),
+                    oz = splat<CarryQuad>(rest[i].z());
+    CarryQuad sum = splat<CarryQuad>(0.0);
     double ratio = 1.0;
     forEachGuideSample(model, s, begin + i, [&](uint32_t a, double w, double t) {
       const GuideEdgeCarry& e = carry[a];
-      sum += w * ((1.0 - t) * e.from + t * e.to + e.turn * offset);
-      ratio = std::min(ratio, e.edge_ratio);
+      sum += w * ((1.0 - t) * loadQuad(e.from) + t * loadQuad(e.to) +
+                  (loadQuad(e.turn_column[0]) * ox + loadQuad(e.turn_column[1]) * oy +
+                   loadQuad(e.turn_column[2]) * oz));
+      ratio = std::min(ratio, e.edgeRatio());
     });
-    setLaneValue(&c.x[i], l, sum.x);
-    setLaneValue(&c.y[i], l, sum.y);
-    setLaneValue(&c.z[i], l, sum.z);
+    setLaneValue(&c.x[i], l, sum[0]);
+    setLaneValue(&c.y[i], l, sum[1]);
+    setLaneValue(&c.z[i], l, sum[2]);
     setLaneValue(&c.least_ratio[i], l, ratio);
   }
+}
+
+/// A guide edge's carry (GuideEdgeCarry) from its turn, its ends less their turned rest positions
+/// and its length over its rest length.
+void setGuideEdgeCarry(const Mat3& turn, const Vec3& from, const Vec3& to, double edge_ratio,
+                       GuideEdgeCarry* carry) {
+  for (int col = 0; col < 3; ++col)
+    for (int row = 0; row < 3; ++row) carry->turn_column[col][row] = turn(row, col);
+  for (int axis = 0; axis < 3; ++axis) {
+    carry->from[axis] = from[axis];
+    carry->to[axis] = to[axis];
+  }
+  carry->from[3] = carry->to[3] = edge_ratio;
 }
 
 /// What every follower of one placement shares: the pose (as a matrix, computed once: a
@@ -628,12 +652,10 @@ void updateFollowers(const HairModel& model, const SolverConfig& config, const P
                    frames);
     const Vec3* rest = &state->guide_rest_head[begin];
     for (int i = 0; i + 1 < n; ++i) {
-      GuideEdgeCarry& carry = state->guide_edge_carry[begin + i];
       const Mat3 turn = frames[i] * f.guide_rest_frame[begin + i].transpose();
-      carry.turn = toM33(turn);
-      carry.from = toV3(x[i] - turn * rest[i]);
-      carry.to = toV3(x[i + 1] - turn * rest[i + 1]);
-      carry.edge_ratio = (x[i + 1] - x[i]).norm() / model.rest_edge_m[begin + i];
+      setGuideEdgeCarry(turn, x[i] - turn * rest[i], x[i + 1] - turn * rest[i + 1],
+                        (x[i + 1] - x[i]).norm() / model.rest_edge_m[begin + i],
+                        &state->guide_edge_carry[begin + i]);
     }
   });
   const PlacementFrame frame(model, config, pose, obstacles, dt_s);

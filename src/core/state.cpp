@@ -115,9 +115,7 @@ HairState makeState(const HairModel& model, const Pose& head_pose, const Twist& 
     const size_t guide_particles = model.strand_offsets[model.followers.guide_strands];
     state.guide_position_head.assign(guide_particles, Vec3::Zero());
     state.guide_rest_head.assign(guide_particles, Vec3::Zero());
-    state.guide_edge_carry.assign(
-        guide_particles,
-        GuideEdgeCarry{toM33(Mat3::Identity()), zero3<double>(), zero3<double>(), 1.0});
+    state.guide_edge_carry.assign(guide_particles, GuideEdgeCarry());
     state.guide_clump_offset.assign(guide_particles, Vec3::Zero());
     const size_t follower_particles = n - guide_particles;
     state.follower_rest_head.assign(follower_particles, Vec3::Zero());

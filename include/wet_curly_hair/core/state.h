@@ -27,15 +27,16 @@ struct WarningStats {
   uint64_t total() const { return nonfinite_repairs + strain_repairs; }
 };
 
-/// One guide edge as its followers read it (followers.cpp, interpolateFromGuides), head frame,
-/// together so that a follower sample reads two cache lines: the rotation of the edge's smoothed
-/// frame from rest, its ends' positions less their exaggerated rest positions so rotated (a
-/// follower sample at fraction t carries its rest offset r to the mix of from and to plus turn r),
-/// m, and its length over its rest length.
-struct GuideEdgeCarry {
-  M33<double> turn;
-  V3<double> from, to;
-  double edge_ratio;
+/// One guide edge as its followers read it (followers.cpp, interpolateFromGuides), head frame:
+/// the rotation of the edge's smoothed frame from rest, as columns, and its ends' positions less
+/// their exaggerated rest positions so rotated (a follower sample at fraction t carries its rest
+/// offset r to the mix of from and to plus turn r). Each as 4 doubles, one AVX2 register, so that
+/// a sample is five vector multiply-adds: a column's fourth is 0, and the fourth of from and to
+/// holds the edge's length over its rest length. 160 bytes, read together.
+struct alignas(32) GuideEdgeCarry {
+  double turn_column[3][4] = {{1.0, 0.0, 0.0, 0.0}, {0.0, 1.0, 0.0, 0.0}, {0.0, 0.0, 1.0, 0.0}};
+  double from[4] = {0.0, 0.0, 0.0, 1.0}, to[4] = {0.0, 0.0, 0.0, 1.0};
+  double edgeRatio() const { return from[3]; }
 };
 
 /// Scratch space for one strand, sized once for the longest strand.
