@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "display_write.h"
 #include "parallel.h"
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/followers.h"
@@ -163,15 +164,16 @@ void computeDensity(const HairModel& model, double h, HairState* state, int thre
 int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, HairState* state,
                            int threads) {
   const Vec3List& p = state->position;
-  Vec3* wet_position = state->wet_position.data();
-  parallelFor(threads, Schedule::kStatic, 0, static_cast<int>(p.size()),
-              [&](int i) { wet_position[i] = p[i]; });
-  if (c.mode != "ours" || c.tightness <= 0.0 || !anyWet(*state)) return 0;
-  if (c.evaluation == "grid") {
+  const detail::DisplayWrite write = detail::displayWrite(c, state);
+  // The lattice writes every particle's p^w (and held offset) itself; the others start at p.
+  if (c.mode == "ours" && c.tightness > 0.0 && c.evaluation == "grid" && anyWet(*state)) {
     const int clumped = computeDisplayCohesionGrid(model, c, state, threads);
     if (clumped >= 0) return clumped;
     ++state->warnings.cohesion_grid_fallbacks;  // lattice too small for the hair's box: exact
   }
+  parallelFor(threads, Schedule::kStatic, 0, static_cast<int>(p.size()),
+              [&](int i) { write.unmoved(i, p[i]); });
+  if (c.mode != "ours" || c.tightness <= 0.0 || !anyWet(*state)) return 0;
   const double h = c.radius_m, h2 = h * h;
   // Cells of h: measured, cells of h/2 or h/3 (fewer candidates, more cells and hash
   // collisions) cost 1.7x and 2.8x more on 100 wet strands.
@@ -216,10 +218,10 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
         weight_sum > 0.0 ? clumpOffset(pull, weight_sum, c.tightness) : Vec3(Vec3::Zero());
     if (at_guides) state->guide_clump_offset[i] = offset;
     if (weight_sum <= 0.0 || !wet) return 0;  // isolated: p^w = p (A13)
-    state->wet_position[i] = p[i] + offset;
+    write(i, p[i], offset);
     return 1;
   }));
-  return at_guides ? clumped + displayFollowersFromGuides(model, state, threads) : clumped;
+  return at_guides ? clumped + displayFollowersFromGuides(model, c, state, threads) : clumped;
 }
 
 int updateDisplayCohesion(const HairModel& model, const CohesionConfig& c, double time_s,
@@ -229,13 +231,9 @@ int updateDisplayCohesion(const HairModel& model, const CohesionConfig& c, doubl
   const double since = time_s - state->display_evaluated_s;
   const bool hold = period > 0.0 && since >= 0.0 && since < period * (1.0 - 1e-9);
   if (!hold) {
+    // With period > 0 this writes the held offsets too (DisplayWrite).
     const int clumped = computeDisplayCohesion(model, c, state, threads);
-    if (period > 0.0) {
-      const Vec3List& p = state->position;
-      parallelFor(threads, Schedule::kStatic, 0, model.particleCount(),
-                  [&](int i) { state->display_offset[i] = state->wet_position[i] - p[i]; });
-      state->display_evaluated_s = time_s;
-    }
+    if (period > 0.0) state->display_evaluated_s = time_s;
     return clumped;
   }
   const Vec3List& p = state->position;

@@ -7,6 +7,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "display_write.h"
 #include "parallel.h"
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/wet_kernels.h"
@@ -799,9 +800,13 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const double c6 = L.c * L.c * L.c * L.c * L.c * L.c;  // the float shares' lattice units
   const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
                               g.qy_f.data(), g.qz_f.data()};
+  const detail::DisplayWrite write = detail::displayWrite(cfg, state);
   const int clumped = static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
     const bool wet_particle = state->saturation[i] > 0.0;
-    if (!wet_particle && !at_guides) return 0;  // dry particles keep p^w = p
+    if (!wet_particle && !at_guides) {  // dry particles keep p^w = p
+      write.unmoved(i, p[i]);
+      return 0;
+    }
     // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     WetSums all =
@@ -827,17 +832,21 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     // Round-off of the cancellation: no other strand within reach.
     if (!(weight_sum > 1e-9 * own.weight)) {
       if (at_guides) state->guide_clump_offset[i] = Vec3::Zero();
+      write.unmoved(i, p[i]);
       return 0;
     }
     const Vec3 pull = all.pull - own.pull;
     if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
     const Vec3 offset = clumpOffset(pull, weight_sum, cfg.tightness);
     if (at_guides) state->guide_clump_offset[i] = offset;
-    if (!wet_particle) return 0;
-    state->wet_position[i] = p[i] + offset;
+    if (!wet_particle) {
+      write.unmoved(i, p[i]);
+      return 0;
+    }
+    write(i, p[i], offset);
     return 1;
   }));
-  return at_guides ? clumped + displayFollowersFromGuides(model, state, threads) : clumped;
+  return at_guides ? clumped + displayFollowersFromGuides(model, cfg, state, threads) : clumped;
 }
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "display_write.h"
 #include "parallel.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/smoothing.h"
@@ -315,6 +316,10 @@ WCH_INLINE CarryQuad loadQuad(const double* a) {
   std::memcpy(&q, a, sizeof q);
   return q;
 }
+/// Three doubles (a Vec3 of a list) into x, y, z, the spare lane 0: reads nothing past them.
+/// Element by element (a copy of 3 doubles into the register's bytes went through the stack, and
+/// the load of the whole register waited on the smaller stores: the display pass 1.3x slower).
+WCH_INLINE CarryQuad loadTriple(const double* a) { return CarryQuad{a[0], a[1], a[2], 0.0}; }
 
 /// A group of followers' per-particle inputs to the edge hold, lane l holding strand l's, carved
 /// from the thread's StrandScratch::lane_buffer: the positions from interpolateFromGuides (head
@@ -612,23 +617,34 @@ void placeFollowers(const PlacementFrame& frame, int first, int count, const Fol
 
 }  // namespace
 
-int displayFollowersFromGuides(const HairModel& model, HairState* state, int threads) {
+int displayFollowersFromGuides(const HairModel& model, const CohesionConfig& config,
+                               HairState* state, int threads) {
   const FollowerMap& f = model.followers;
   if (f.guide_strands <= 0) return 0;
   const int followers = model.strandCount() - f.guide_strands;
-  const Vec3* offset = state->guide_clump_offset.data();
+  const double* offset = state->guide_clump_offset.data()->data();
+  const detail::DisplayWrite write = detail::displayWrite(config, state);
   return static_cast<int>(detail::parallelSum(threads, 16, followers, [&](int k) -> int {
     const int s = f.guide_strands + k, begin = model.strandBegin(s);
     int moved = 0;
     for (int i = begin; i < begin + model.strandSize(s); ++i) {
-      if (state->saturation[i] <= 0.0) continue;  // dry particles keep p^w = p
-      V3<double> d = zero3<double>();
+      const Vec3& p = state->position[i];
+      if (state->saturation[i] <= 0.0) {  // dry particles keep p^w = p
+        write.unmoved(i, p);
+        continue;
+      }
+      // x, y, z of the offsets in one register (the spare lane 0): two per sample.
+      CarryQuad d = splat<CarryQuad>(0.0);
       forEachGuideSample(model, s, i, [&](uint32_t a, double w, double t) {
-        d += w * ((1.0 - t) * toV3(offset[a]) + t * toV3(offset[a + 1]));
+        d += w * ((1.0 - t) * loadTriple(offset + 3 * size_t(a)) +
+                  t * loadTriple(offset + 3 * (size_t(a) + 1)));
       });
       // Every guide sample isolated: p^w = p (A13).
-      if (d.x == 0.0 && d.y == 0.0 && d.z == 0.0) continue;
-      state->wet_position[i] = state->position[i] + toEigen(d);
+      if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0) {
+        write.unmoved(i, p);
+        continue;
+      }
+      write(i, p, Vec3(d[0], d[1], d[2]));
       ++moved;
     }
     return moved;

@@ -11,6 +11,7 @@
 #include <map>
 #include <random>
 
+#include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -581,4 +582,38 @@ TEST(Followers, AFreshStateHoldsNoRestShapeYet) {
   updateFollowers(m, c, pose, nullptr, 0.0, 1, &s);
   for (int i = m.strand_offsets[m.followers.guide_strands]; i < m.particleCount(); ++i)
     ASSERT_LT((s.position[i] - m.rest_position_head[i]).norm(), 1e-12) << i;
+}
+
+TEST(Followers, EveryPathOfTheDisplayPassWritesTheOffsetsItHolds) {
+  // cohesion.refresh_period_s > 0: exact or on the lattice, with the sums at every particle or at
+  // the guides (the followers' interpolation), the evaluation writes each particle's offset
+  // p^w - p with its p^w, and the frame after it carries those offsets on the moved positions.
+  // The held offsets start as NaN, so a particle a path leaves out shows.
+  for (const char* evaluation : {"exact", "grid"})
+    for (const char* gather_at : {"all", "guides"}) {
+      SolverConfig c;
+      c.cohesion.evaluation = evaluation;
+      c.cohesion.gather_at = gather_at;
+      const HairModel m = followerModel(curlyGroom(60), 4, c);
+      HairState s = wetNodRun(m, c, 10);
+      c.cohesion.refresh_period_s = 2.0 * kFrame;
+      std::fill(s.display_offset.begin(), s.display_offset.end(), Vec3::Constant(NAN));
+      s.display_evaluated_s = NAN;  // the next call evaluates
+      const std::string what = std::string(evaluation) + " " + gather_at;
+      updateDisplayCohesion(m, c.cohesion, 10 * kFrame, &s, 2);
+      int moved = 0;
+      for (int i = 0; i < m.particleCount(); ++i) {
+        const Vec3 offset = s.display_offset[i];
+        ASSERT_LE((s.wet_position[i] - s.position[i] - offset).norm(), 1e-15) << what << " " << i;
+        moved += offset != Vec3::Zero();
+      }
+      EXPECT_GT(moved, m.particleCount() / 4) << what << ": few offsets, the test proves little";
+      const Vec3List held = s.display_offset;
+      for (int i = 0; i < m.particleCount(); ++i) s.position[i] += Vec3(0.001, -0.002, 0.0005);
+      updateDisplayCohesion(m, c.cohesion, 11 * kFrame, &s, 2);
+      for (int i = 0; i < m.particleCount(); ++i)
+        ASSERT_EQ(s.wet_position[i],
+                  held[i] == Vec3::Zero() ? s.position[i] : Vec3(s.position[i] + held[i]))
+            << what << " " << i;
+    }
 }

@@ -33,8 +33,9 @@ void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positi
 ///   p^w_i = p_i + lambda sum_j w_ij sigma_j (p_j - p_i),  w_ij = V_j W_ij / sum_k V_k W_ik,
 /// over particles j of other strands within h (poly6 kernel, V_j = m_j / rho_j, rho from all
 /// particles within h, self included). Dry particles and isolated ones keep p^w = p. Writes
-/// state->wet_position only; the dynamics never read it. Returns the number of wet particles
-/// that found neighbours.
+/// state->wet_position, and the offsets p^w - p to state->display_offset where config holds them
+/// between evaluations (refresh_period_s > 0); the dynamics never read either. Returns the number
+/// of wet particles that found neighbours.
 int computeDisplayCohesion(const HairModel& model, const CohesionConfig& config, HairState* state,
                            int threads = 1);
 

@@ -52,8 +52,9 @@ constexpr int kCohesionFloatLanes = 8;
 /// bound exceeds kMaxCohesionGridNodes.
 size_t cohesionGridNodeBound(const HairModel& model, const SolverConfig& config);
 
-/// Eq. (10) by the lattice approximation into state->wet_position, which the caller has set to
-/// the positions (dry and isolated particles keep them). Returns the number of wet particles that
+/// Eq. (10) by the lattice approximation into state->wet_position, every particle's (dry and
+/// isolated ones get their positions), and into state->display_offset where config holds the
+/// offsets between evaluations (refresh_period_s > 0). Returns the number of wet particles that
 /// found other-strand neighbours, or -1 (nothing written) when the hair's current bounding box
 /// needs more nodes than state->cohesion_grid holds or is not finite.
 int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& config,

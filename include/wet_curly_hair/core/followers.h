@@ -67,12 +67,14 @@ WCH_INLINE void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) 
 
 /// cohesion.gather_at "guides", after the guides' display offsets (state->guide_clump_offset,
 /// wet or dry guide particles alike): every wet follower particle's p^w = p plus the offsets
-/// interpolated at it (forEachGuideSample). An approximation: a particle's own offset points at
-/// its nearest neighbours, millimetres away, which its guides' offsets do not know; measured, the
-/// followers' p^w differs from their own sums' by about the offset itself, while the clump
-/// distance stays within a few % (docs/followers.md). Returns the wet follower particles moved.
-/// No-op without followers.
-int displayFollowersFromGuides(const HairModel& model, HairState* state, int threads);
+/// interpolated at it (forEachGuideSample), every dry one's p^w = p; the offsets also to
+/// state->display_offset where config holds them between evaluations (refresh_period_s > 0).
+/// An approximation: a particle's own offset points at its nearest neighbours, millimetres away,
+/// which its guides' offsets do not know; measured, the followers' p^w differs from their own
+/// sums' by about the offset itself, while the clump distance stays within a few %
+/// (docs/followers.md). Returns the wet follower particles moved. No-op without followers.
+int displayFollowersFromGuides(const HairModel& model, const CohesionConfig& config,
+                               HairState* state, int threads);
 
 /// Places every follower after a step, in the head frame (head_pose): the weighted sum over its
 /// guides of the guide's point at the follower particle's normalized arc length plus the
