@@ -1,8 +1,10 @@
-// The follower placement alone (updateFollowers, followers.h): the built-in scene (curly, wet
-// toward the tips, nodding) with the sphere behind the head of bench_followers, at --strands
-// output strands and follow ratio --follow-ratio, stepped --warm-frames output frames so that the
-// guides have moved; then the same frame's placement timed --runs times on --threads threads.
-// Prints the median and the fastest wall time per follower particle, with the CPU. The saturation
+// The follower placement alone (updateFollowers, followers.h), or with --stage display the
+// cohesion display pass alone (computeDisplayCohesion, cohesion.h; --gather-at all or guides):
+// the built-in scene (curly, wet toward the tips, nodding) with the sphere behind the head of
+// bench_followers, at --strands output strands and follow ratio --follow-ratio, stepped
+// --warm-frames output frames so that the guides have moved; then the same frame's stage timed
+// --runs times on --threads threads. Prints the median and the fastest wall time per follower
+// particle (placement) or per output particle (display), with the CPU. The saturation
 // does not change between the runs, so after the first the followers' exaggerated rest shapes
 // are the state's held copies, as on every frame of a scene without water or commands. The
 // machines of docs/followers.md vary by tens of % from minute to minute: compare two builds by
@@ -10,7 +12,8 @@
 // worktree beside this one; swapping only the libraries with LD_LIBRARY_PATH is wrong once
 // HairState's layout differs between the two).
 // usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
-//                                 [--threads T]
+//                                 [--threads T] [--stage placement|display] [--gather-at
+//                                 all|guides]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -18,6 +21,7 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -36,14 +40,21 @@ struct Options {
   int warm_frames = 20;
   int runs = 31;
   int threads = 1;
+  std::string stage = "placement";
+  std::string gather_at = "all";
 };
 
 bool parse(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) return false;
-    const int v = std::atoi(argv[++i]);
-    if (a == "--strands")
+    const std::string value = argv[++i];
+    const int v = std::atoi(value.c_str());
+    if (a == "--stage")
+      o->stage = value;
+    else if (a == "--gather-at")
+      o->gather_at = value;
+    else if (a == "--strands")
       o->strands = v;
     else if (a == "--follow-ratio")
       o->follow_ratio = v;
@@ -57,7 +68,8 @@ bool parse(int argc, char** argv, Options* o) {
       return false;
   }
   return o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
-         o->threads > 0;
+         o->threads > 0 && (o->stage == "placement" || o->stage == "display") &&
+         (o->gather_at == "all" || o->gather_at == "guides");
 }
 
 }  // namespace
@@ -67,13 +79,15 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &o)) {
     std::fprintf(stderr,
                  "usage: bench_follower_placement [--strands N > 0] [--follow-ratio K > 1] "
-                 "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0]\n");
+                 "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0] "
+                 "[--stage placement|display] [--gather-at all|guides]\n");
     return 2;
   }
   io::SceneConfig scene = io::builtinScene();
   scene.groom.strands = o.strands;
   scene.groom.follow_ratio = o.follow_ratio;
   scene.solver.integrator.threads = o.threads;
+  scene.solver.cohesion.gather_at = o.gather_at;
   HairModel model;
   std::string why;
   if (!io::buildSceneModel(scene, &model, &why)) {
@@ -97,19 +111,26 @@ int main(int argc, char** argv) {
     step(model, scene.solver, in, frame, &state, nullptr);
   }
   const Pose pose = headPose(motion, o.warm_frames * frame);
-  const int followers =
-      model.particleCount() - static_cast<int>(model.strandBegin(model.followers.guide_strands));
+  const bool display = o.stage == "display";
+  const int timed = display
+                        ? model.particleCount()
+                        : model.particleCount() -
+                              static_cast<int>(model.strandBegin(model.followers.guide_strands));
   std::vector<double> ns;
   for (int r = 0; r < o.runs; ++r) {
     const double t0 = bench::now();
-    updateFollowers(model, scene.solver, pose, &obstacles, frame, o.threads, &state);
-    ns.push_back((bench::now() - t0) / followers * 1e9);
+    if (display)
+      computeDisplayCohesion(model, scene.solver.cohesion, &state, o.threads);
+    else
+      updateFollowers(model, scene.solver, pose, &obstacles, frame, o.threads, &state);
+    ns.push_back((bench::now() - t0) / timed * 1e9);
   }
   std::sort(ns.begin(), ns.end());
   std::printf(
-      "%s\n%d strands, K = %d (%d follower particles), %d thread(s), %d runs: "
-      "median %.1f ns, fastest %.1f ns per follower particle\n",
-      bench::cpuLine().c_str(), o.strands, o.follow_ratio, followers, o.threads, o.runs,
+      "%s\n%d strands, K = %d (%d %s particles), %s, %d thread(s), %d runs: "
+      "median %.1f ns, fastest %.1f ns per particle\n",
+      bench::cpuLine().c_str(), o.strands, o.follow_ratio, timed, display ? "output" : "follower",
+      display ? ("display pass, sums at " + o.gather_at).c_str() : "placement", o.threads, o.runs,
       ns[ns.size() / 2], ns.front());
   return 0;
 }

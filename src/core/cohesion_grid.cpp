@@ -172,11 +172,12 @@ struct RowWindow {
       dz2[j] = static_cast<Real>(ez * ez);
     }
   }
-  /// Calls row(first node, dy, dz, dy^2 + dz^2) for every row with a node within h (in Real: a
-  /// row at the boundary that round-off lets in has q <= 0 to round-off at every node). The float
-  /// rows of a small window (AVX2 builds at 3 and 4 nodes per radius) run all unrolled instead,
-  /// as the packed gathers do (PackedRowWindow::forEachGroup): measured at 3 nodes per radius,
-  /// 1.7 % of the 1,000-strand target scene's step; the double rows gained nothing.
+  /// Calls row(first node, a, b) for every row (ky0 + b, kz0 + a) with a node within h, layer by
+  /// layer (in Real: a row at the boundary that round-off lets in has q <= 0 to round-off at
+  /// every node). The float rows of a small window (AVX2 builds at 3 and 4 nodes per radius) run
+  /// all unrolled instead, as the packed gathers do (PackedRowWindow::forEachGroup): measured at
+  /// 3 nodes per radius, 1.7 % of the 1,000-strand target scene's step; the double rows gained
+  /// nothing.
   template <typename Row>
   void forEachRow(const Lattice& L, double h2d, Row row) const {
     if constexpr (std::is_same<Real, float>::value && kWidth <= 8) {
@@ -184,7 +185,7 @@ struct RowWindow {
       for (int a = 0; a < kWidth; ++a) {
         const int64_t layer = L.index(kx0, ky0, kz0 + a);
 #pragma GCC unroll 8
-        for (int b = 0; b < kWidth; ++b) row(layer + b * L.nx, dy[b], dz[a], dy2[b] + dz2[a]);
+        for (int b = 0; b < kWidth; ++b) row(layer + b * L.nx, a, b);
       }
       return;
     }
@@ -193,9 +194,8 @@ struct RowWindow {
       if (dz2[a] >= h2) continue;
       const int64_t layer = L.index(kx0, ky0, kz0 + a);
       for (int b = 0; b < kWidth; ++b) {
-        const Real r2yz = dy2[b] + dz2[a];
-        if (r2yz >= h2) continue;
-        row(layer + b * L.nx, dy[b], dz[a], r2yz);
+        if (dy2[b] + dz2[a] >= h2) continue;
+        row(layer + b * L.nx, a, b);
       }
     }
   }
@@ -330,30 +330,45 @@ struct WetSums {
   Vec3 pull = Vec3::Zero();  ///< sum_n W_in (Q_n + S_n (x_n - p_i))
 };
 
+/// The row gathers. Per row: q from h^2 - dx^2 less the layer's dz^2 and the row's dy^2; the
+/// sums of w S over each layer, whose z offset (x_n - p_i).z is the layer's, take it once per
+/// layer at the end instead of once per row (and the row's dy as a multiply-add of its own).
+/// Against the whole offset added per row: the display pass at 0.92x (10,000 strands, K = 10,
+/// one thread, AMD EPYC with AVX2, bench_follower_placement --stage display).
 template <int kCells, typename Real>
 WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, double h2d) {
   typedef RowWindow<kCells, Real> Window;
   typedef typename Window::V V;
-  constexpr int kChunks = Window::kChunks;
+  constexpr int kChunks = Window::kChunks, kWidth = Window::kWidth;
   const Window win(L, r, h2d);
   const Real ka = static_cast<Real>(L.ka), kb = static_cast<Real>(L.kb);
   const Real h2 = static_cast<Real>(h2d);
   const V zero = {};
-  V aw[kChunks] = {}, as[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
-  win.forEachRow(L, h2d, [&](int64_t first, Real dy, Real dz, Real r2yz) {
+  V reach[kChunks];  // h^2 - dx^2 of each lane's node
+  for (int c = 0; c < kChunks; ++c) reach[c] = h2 - win.dx2[c];
+  V aw[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
+  V layer_s[kWidth][kChunks] = {};  // sum of w S over each layer's rows
+  win.forEachRow(L, h2d, [&](int64_t first, int a, int b) {
     for (int c = 0; c < kChunks; ++c) {
       const int64_t k = first + c * kLanes;
-      V q = h2 - (win.dx2[c] + r2yz);
+      V q = (reach[c] - win.dz2[a]) - win.dy2[b];
       q = q > zero ? q : zero;
       const V w = nodeKernel(q, ka, kb);
       const V ws = w * loadLanes<V>(g.wet_volume + k);
       aw[c] += w * loadLanes<V>(g.volume + k);
-      as[c] += ws;
+      layer_s[a][c] += ws;
       ax[c] += w * loadLanes<V>(g.qx + k);
-      ay[c] += w * loadLanes<V>(g.qy + k) + ws * dy;
-      az[c] += w * loadLanes<V>(g.qz + k) + ws * dz;
+      ay[c] += w * loadLanes<V>(g.qy + k);
+      ay[c] += ws * win.dy[b];
+      az[c] += w * loadLanes<V>(g.qz + k);
     }
   });
+  V as[kChunks] = {};
+  for (int a = 0; a < kWidth; ++a)
+    for (int c = 0; c < kChunks; ++c) {
+      as[c] += layer_s[a][c];
+      az[c] += layer_s[a][c] * win.dz[a];
+    }
   WetSums sums;
   for (int c = 0; c < kChunks; ++c) {
     const V px = ax[c] + as[c] * win.dx[c];
