@@ -111,16 +111,27 @@ check "bench_water runs (got $water_rc)" "[ $water_rc -eq 0 ]"
 check "bench_water reports the water stage's share of the dynamics" \
   "grep -q 'CPU: ' $out/water.txt && grep -q '% of the dynamics' $out/water.txt"
 # The follower placement alone (bench/bench_follower_placement.cpp) runs, reports ns per follower
-# particle with the CPU, and refuses a follow ratio without followers.
+# particle with the CPU, times the display pass alone per output particle with --stage display,
+# and refuses a follow ratio without followers and an unknown stage.
 placement=$(tool_path bench_follower_placement "$build") || exit 1
 "$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 3 > "$out/placement.txt" 2>&1
 placement_rc=$?
 check "bench_follower_placement runs (got $placement_rc)" "[ $placement_rc -eq 0 ]"
 check "bench_follower_placement reports the CPU and the time per follower particle" \
-  "grep -q 'no avx512f\|, avx512f' $out/placement.txt && grep -q '(960 follower particles).*ns per follower particle' $out/placement.txt"
+  "grep -q 'no avx512f\|, avx512f' $out/placement.txt && grep -q '(960 follower particles), placement, .*ns per particle' $out/placement.txt"
+"$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 3 --stage display \
+  --gather-at guides > "$out/display.txt" 2>&1
+placement_rc=$?
+check "bench_follower_placement --stage display runs (got $placement_rc)" "[ $placement_rc -eq 0 ]"
+check "bench_follower_placement --stage display reports the time per output particle" \
+  "grep -q '(1280 output particles), display pass, sums at guides, .*ns per particle' $out/display.txt"
 "$placement" --follow-ratio 1 > /dev/null 2> "$out/placement_err"
 placement_rc=$?
 check "bench_follower_placement refuses --follow-ratio 1 (got $placement_rc)" \
   "[ $placement_rc -eq 2 ] && grep -q 'follow-ratio K > 1' $out/placement_err"
+"$placement" --stage splat > /dev/null 2> "$out/placement_err"
+placement_rc=$?
+check "bench_follower_placement refuses an unknown stage (got $placement_rc)" \
+  "[ $placement_rc -eq 2 ] && grep -q 'stage placement|display' $out/placement_err"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
