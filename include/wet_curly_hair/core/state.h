@@ -5,7 +5,6 @@
 #include <limits>
 #include <vector>
 
-#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/model.h"
 #include "wet_curly_hair/core/types.h"
 
