@@ -570,72 +570,55 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int
   }
 }
 
-/// The node layers kz split among a team of threads so that each adds about as many corners
-/// (a particle adds 4 to layer cz and 4 to cz + 1). Hair hangs: split into layers of equal
-/// count, the lower half of a 10,000-strand groom's box held 73 % of the particles, and the
-/// splats ran 1.16x faster on 2 threads than on 1. Lattices of more than kMaxLayers layers are
-/// split evenly.
-struct LayerSplit {
-  static constexpr int64_t kMaxLayers = 2048;
-  int64_t nz = 0;
-  bool balanced = false;
-  int64_t corners_below[kMaxLayers + 1];  ///< corners added to the layers below each layer
+/// The splat's particles in two halves by index, each added into its own copy of the node
+/// arrays; the caller sums the copies node by node (half 0 + half 1). Two threads then each take
+/// one half and read only its particles: with one copy, each thread owned a slab of node layers
+/// and scanned every particle for those in its slab, and the splats ran 1.2x faster on 2
+/// threads than on 1.
+constexpr int kSplatHalves = 2;
 
-  LayerSplit(const Lattice& L, const Vec3List& p) : nz(L.nz) {
-    balanced = nz <= kMaxLayers;
-    if (!balanced) return;
-    std::fill(corners_below, corners_below + nz + 1, 0);
-    for (const Vec3& x : p) {  // particles per cell layer, at corners_below[cz + 1] for now
-      const int64_t cz = static_cast<int64_t>(std::floor(nodeCoordinate(L, x, 2)));
-      if (cz >= 0 && cz + 1 < nz) ++corners_below[cz + 1];
-    }
-    int64_t below = 0, cells_below = 0;  // cells_below: particles whose cell is one layer down
-    for (int64_t k = 0; k < nz; ++k) {
-      const int64_t cells_here = corners_below[k + 1];
-      corners_below[k] = below;
-      below += 4 * (cells_here + cells_below);
-      cells_below = cells_here;
-    }
-    corners_below[nz] = below;
-  }
+/// The particles of one half: [begin, end).
+inline std::pair<int, int> splatHalf(int half, int n) {
+  return half == 0 ? std::make_pair(0, n / 2) : std::make_pair(n / 2, n);
+}
 
-  /// The first layer of thread t (t = team: the end).
-  int64_t first(int64_t t, int64_t team) const {
-    if (t >= team) return nz;
-    if (!balanced) return nz * t / team;
-    const int64_t target = corners_below[nz] * t / team;
-    return std::lower_bound(corners_below, corners_below + nz, target) - corners_below;
-  }
-};
-
-/// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell) gives the
-/// particle's adder, called as add(node, ax, ay, az, t) for the corner (cell + (ax, ay, az)) with
-/// the trilinear weight t, so that the particle's values are read once, not once per corner. Each
-/// thread owns a slab of node layers kz and scans all particles in order, adding only to its own
-/// nodes: every node receives its additions in particle order, as in a serial loop, so the
-/// lattice is bit-identical for any thread count and any split.
+/// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell, half) gives the
+/// particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node,
+/// ax, ay, az, t) for the corner (cell + (ax, ay, az)) with the trilinear weight t, so that the
+/// particle's values are read once, not once per corner. One thread does both halves in turn;
+/// a team gives each half its share of the threads, and a half's threads split its node layers
+/// kz evenly, each scanning the half's particles in order and adding only to its own layers.
+/// Every node of a copy receives its additions in particle order, as in a serial loop, so the
+/// lattice is bit-identical for any thread count.
 template <typename Particle>
-void splat(const Lattice& L, const Vec3List& p, const LayerSplit& layers, int threads,
-           Particle particle) {
+void splat(const Lattice& L, const Vec3List& p, int threads, Particle particle) {
   const int n = static_cast<int>(p.size());
   parallelRegion(threads, [&](int64_t t, int64_t team) {
-    const int64_t z_lo = layers.first(t, team), z_hi = layers.first(t + 1, team);
-    for (int j = 0; j < n; ++j) {
-      const int64_t cz = static_cast<int64_t>(std::floor(nodeCoordinate(L, p[j], 2)));
-      if (cz + 1 < z_lo || cz >= z_hi) continue;
-      const CellPosition cell = cellPosition(L, p[j]);
-      const int64_t cx = static_cast<int64_t>(cell.k[0]), cy = static_cast<int64_t>(cell.k[1]);
-      const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
-      auto add = particle(j, cell);
-      for (int az = 0; az < 2; ++az) {
-        const int64_t kz = cz + az;
-        if (kz < z_lo || kz >= z_hi) continue;
-        const double wz = az ? tz : 1.0 - tz;
-        for (int ay = 0; ay < 2; ++ay) {
-          const double wy = ay ? ty : 1.0 - ty;
-          const int64_t row = L.index(cx, cy + ay, kz);
-          add(row, 0, ay, az, (1.0 - tx) * wy * wz);
-          add(row + 1, 1, ay, az, tx * wy * wz);
+    for (int half = 0; half < kSplatHalves; ++half) {
+      // The half's threads: all of a team of one, else the first or the second half of the team.
+      const int64_t first = team == 1 || half == 0 ? 0 : team / 2;
+      const int64_t count = team == 1 ? 1 : (half == 0 ? team / 2 : team - team / 2);
+      const int64_t rank = t - first;
+      if (rank < 0 || rank >= count) continue;
+      const int64_t z_lo = L.nz * rank / count, z_hi = L.nz * (rank + 1) / count;
+      const std::pair<int, int> range = splatHalf(half, n);
+      for (int j = range.first; j < range.second; ++j) {
+        const int64_t cz = static_cast<int64_t>(std::floor(nodeCoordinate(L, p[j], 2)));
+        if (cz + 1 < z_lo || cz >= z_hi) continue;
+        const CellPosition cell = cellPosition(L, p[j]);
+        const int64_t cx = static_cast<int64_t>(cell.k[0]), cy = static_cast<int64_t>(cell.k[1]);
+        const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
+        auto add = particle(j, cell, half);
+        for (int az = 0; az < 2; ++az) {
+          const int64_t kz = cz + az;
+          if (kz < z_lo || kz >= z_hi) continue;
+          const double wz = az ? tz : 1.0 - tz;
+          for (int ay = 0; ay < 2; ++ay) {
+            const double wy = ay ? ty : 1.0 - ty;
+            const int64_t row = L.index(cx, cy + ay, kz);
+            add(row, 0, ay, az, (1.0 - tx) * wy * wz);
+            add(row + 1, 1, ay, az, tx * wy * wz);
+          }
         }
       }
     }
@@ -711,18 +694,15 @@ WCH_INLINE double interpolateNodes(const Lattice& L, const CellPosition& cell, c
   return (1.0 - tz) * low + tz * high;
 }
 
-/// The single-precision copy of a node array (the first `nodes` entries).
-void toSingle(const std::vector<double>& from, std::vector<float>* to, int64_t nodes, int threads) {
-  const double* __restrict a = from.data();
-  float* __restrict b = to->data();
-  parallelFor(threads, Schedule::kStatic, 0, nodes,
-              [&](int64_t k) { b[k] = static_cast<float>(a[k]); });
-}
-
-/// Pass 2's side-by-side splat (wet_splat, 4 per node) into the node arrays the gathers read:
-/// wet_volume, qx, qy, qz, and with `single` their float copies, in one pass over the nodes.
+/// Pass 2's halves summed (splat) and spread into the node arrays the gathers read: the volume
+/// into scalar, the side-by-side splat (wet_splat, 4 per node) into wet_volume, qx, qy, qz,
+/// and with `single` their float copies, in one pass over the nodes.
 void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads) {
   const double* __restrict w = g->wet_splat.data();
+  const double* __restrict w_b = g->wet_splat_b.data();
+  double* __restrict v = g->scalar.data();
+  const double* __restrict v_b = g->scalar_b.data();
+  float* __restrict vf = g->scalar_f.data();
   double* __restrict s = g->wet_volume.data();
   double* __restrict x = g->qx.data();
   double* __restrict y = g->qy.data();
@@ -732,11 +712,13 @@ void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads
   float* __restrict yf = g->qy_f.data();
   float* __restrict zf = g->qz_f.data();
   parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) {
-    s[k] = w[4 * k];
-    x[k] = w[4 * k + 1];
-    y[k] = w[4 * k + 2];
-    z[k] = w[4 * k + 3];
+    v[k] += v_b[k];
+    s[k] = w[4 * k] + w_b[4 * k];
+    x[k] = w[4 * k + 1] + w_b[4 * k + 1];
+    y[k] = w[4 * k + 2] + w_b[4 * k + 2];
+    z[k] = w[4 * k + 3] + w_b[4 * k + 3];
     if (!single) return;
+    vf[k] = static_cast<float>(v[k]);
     sf[k] = static_cast<float>(s[k]);
     xf[k] = static_cast<float>(x[k]);
     yf[k] = static_cast<float>(y[k]);
@@ -744,10 +726,21 @@ void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads
   });
 }
 
-/// The first `count` entries of v set to 0.
-void zero(std::vector<double>* v, int64_t count, int threads) {
-  double* a = v->data();
-  parallelFor(threads, Schedule::kStatic, 0, count, [&](int64_t k) { a[k] = 0.0; });
+/// The first `count` entries of each of a and b set to 0.
+void zero(std::vector<double>* a, std::vector<double>* b, int64_t count, int threads) {
+  double* __restrict x = a->data();
+  double* __restrict y = b->data();
+  parallelFor(threads, Schedule::kStatic, 0, count, [&](int64_t k) {
+    x[k] = 0.0;
+    y[k] = 0.0;
+  });
+}
+
+/// a += b over the first `count` entries.
+void addInto(std::vector<double>* a, const std::vector<double>& b, int64_t count, int threads) {
+  double* __restrict x = a->data();
+  const double* __restrict y = b.data();
+  parallelFor(threads, Schedule::kStatic, 0, count, [&](int64_t k) { x[k] += y[k]; });
 }
 
 }  // namespace
@@ -798,15 +791,17 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tz_f[j] = static_cast<float>(g.tz[j]);
   });
 
-  const LayerSplit layers(L, p);
-
-  // Pass 1: mass to the nodes, density and volume of every particle.
-  zero(&g.scalar, nodes, threads);
-  double* const mass_nodes = g.scalar.data();
-  splat(L, p, layers, threads, [&](int j, const CellPosition&) {
+  // Pass 1: mass to the nodes (the two halves' copies summed), density and volume of every
+  // particle.
+  zero(&g.scalar, &g.scalar_b, nodes, threads);
+  double* const mass_nodes[kSplatHalves] = {g.scalar.data(), g.scalar_b.data()};
+  splat(L, p, threads, [&](int j, const CellPosition&, int half) {
     const double m = model.mass_kg[j];
-    return [m, mass_nodes](int64_t node, int, int, int, double t) { mass_nodes[node] += t * m; };
+    double* const nodes_of_half = mass_nodes[half];
+    return
+        [m, nodes_of_half](int64_t node, int, int, int, double t) { nodes_of_half[node] += t * m; };
   });
+  addInto(&g.scalar, g.scalar_b, nodes, threads);
   // The density at the nodes, then at every particle from its cell's nodes (the lattice's
   // density field is smooth on the scale h: convolving once per node and interpolating costs a
   // fraction of a gather per particle, at 1.02x its error against exact, docs/physics.md 7.3),
@@ -822,8 +817,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   });
 
   // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
-  zero(&g.scalar, nodes, threads);
-  zero(&g.wet_splat, 4 * nodes, threads);
+  zero(&g.scalar, &g.scalar_b, nodes, threads);
+  zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
   // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
   // its own: with gather_at "guides" the followers' would be written and never read).
   parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
@@ -832,8 +827,9 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.volume_f[j] = static_cast<float>(g.volume[j]);
     g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
   });
-  splat(L, p, layers, threads, [&](int j, const CellPosition& cell) {
-    WetSplat add(g.scalar.data(), g.wet_splat.data(), g.volume[j],
+  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
+    WetSplat add(half == 0 ? g.scalar.data() : g.scalar_b.data(),
+                 half == 0 ? g.wet_splat.data() : g.wet_splat_b.data(), g.volume[j],
                  g.volume[j] * state->saturation[j]);
     for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
       add.ox[a] = cell.r.x() - (cell.k[0] + a) * L.c;
@@ -844,7 +840,6 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   });
 
   spreadWetSplat(&g, nodes, single, threads);
-  if (single) toSingle(g.scalar, &g.scalar_f, nodes, threads);
   const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
                              g.qz.data()};
   // The own strands' shares in float, a strand at a time (strands with a wet particle only;

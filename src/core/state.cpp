@@ -40,8 +40,10 @@ void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_off
 
 void CohesionNodeGrid::resize(size_t nodes, int particles) {
   const size_t padded = nodes > 0 ? nodes + kCohesionGridPadding : 0;
-  for (std::vector<double>* v : {&scalar, &wet_volume, &qx, &qy, &qz}) v->assign(padded, 0.0);
+  for (std::vector<double>* v : {&scalar, &scalar_b, &wet_volume, &qx, &qy, &qz})
+    v->assign(padded, 0.0);
   wet_splat.assign(4 * padded, 0.0);
+  wet_splat_b.assign(4 * padded, 0.0);
   for (std::vector<float>* v : {&scalar_f, &wet_volume_f, &qx_f, &qy_f, &qz_f})
     v->assign(padded, 0.0f);
   const size_t per_particle = nodes > 0 ? static_cast<size_t>(particles) : 0;

@@ -119,6 +119,9 @@ struct CohesionNodeGrid {
   /// Pass 2's splat of V sigma and V sigma (p - node), 4 per node side by side: a particle's
   /// corner then adds to one vector, not to four arrays (copied to wet_volume, qx, qy, qz after).
   std::vector<double> wet_splat;
+  /// The second half of the particles' copies of scalar and wet_splat (the splat's halves,
+  /// summed into the arrays above).
+  std::vector<double> scalar_b, wet_splat_b;
   /// Single-precision copies of the five node arrays above, read by the float gathers.
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
   // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
