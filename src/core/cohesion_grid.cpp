@@ -904,6 +904,31 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   return at_guides ? clumped + displayFollowersFromGuides(model, cfg, state, threads) : clumped;
 }
 
+/// The positions' bounding box, on every thread: each takes a contiguous share, and the shares'
+/// boxes are joined in thread order (min and max are exact: the same box for any thread count).
+void boundingBox(const Vec3List& p, int threads, Vec3* lo, Vec3* hi) {
+  const int64_t n = static_cast<int64_t>(p.size());
+  Vec3 share_lo[kMaxSolverThreads], share_hi[kMaxSolverThreads];
+  int64_t shares = 1;
+  parallelRegion(std::min(threads, kMaxSolverThreads), [&](int64_t t, int64_t team) {
+    if (t == 0) shares = team;
+    const int64_t begin = n * t / team, end = n * (t + 1) / team;
+    Vec3 a = Vec3::Constant(INFINITY), b = Vec3::Constant(-INFINITY);
+    for (int64_t i = begin; i < end; ++i) {
+      a = a.cwiseMin(p[i]);
+      b = b.cwiseMax(p[i]);
+    }
+    share_lo[t] = a;
+    share_hi[t] = b;
+  });
+  *lo = share_lo[0];
+  *hi = share_hi[0];
+  for (int64_t t = 1; t < shares; ++t) {
+    *lo = lo->cwiseMin(share_lo[t]);
+    *hi = hi->cwiseMax(share_hi[t]);
+  }
+}
+
 }  // namespace
 
 size_t cohesionGridNodeBound(const HairModel& model, const SolverConfig& config) {
@@ -957,11 +982,8 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
     L.ka_both = 2.0 * L.ka;
     L.kb_both = 2.0 * L.kb;
   }
-  Vec3 lo = p[0], hi = p[0];
-  for (int i = 1; i < n; ++i) {
-    lo = lo.cwiseMin(p[i]);
-    hi = hi.cwiseMax(p[i]);
-  }
+  Vec3 lo, hi;
+  boundingBox(p, threads, &lo, &hi);
   // Kernel reach plus the trilinear cell on both sides (and one node of slack for round-off).
   const int64_t margin = cfg.grid_cells_per_radius + 2;
   L.origin = lo - Vec3::Constant(double(margin) * L.c);
