@@ -16,13 +16,13 @@ its sphere (solver.obstacle.enabled false), where the reference converges.
 """
 import argparse
 import json
-import math
 import os
 import subprocess
 import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from hair_contact_error import error  # noqa: E402
 from hard_cases import read_hair  # noqa: E402
 
 SCENE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "scenes",
@@ -43,22 +43,6 @@ def run(binary, out_dir, substep, args):
     return [read_hair(os.path.join(frames, n)) for n in names], rtf
 
 
-def error(a, b, frames=None):
-    """RMS and max particle distance between two runs over their first `frames` frames (all:
-    None), in % of the mean strand length (measured on the first frame of b)."""
-    lengths = [sum(math.dist(s[i], s[i + 1]) for i in range(len(s) - 1)) for s in b[0]]
-    length = sum(lengths) / len(lengths)
-    total, count, worst = 0.0, 0, 0.0
-    for fa, fb in list(zip(a, b))[:frames]:
-        for sa, sb in zip(fa, fb):
-            for pa, pb in zip(sa, sb):
-                d = math.dist(pa, pb)
-                total += d * d
-                count += 1
-                worst = max(worst, d)
-    return 100.0 * math.sqrt(total / count) / length, 100.0 * worst / length
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default="_build")
@@ -74,7 +58,7 @@ def main():
         fine = min(substeps) / 8
         ref, _ = run(binary, tmp, fine, args)
         check, _ = run(binary, tmp, fine / 2, args)
-        horizons = [0.25, 0.5, args.seconds]
+        horizons = sorted(set(t for t in [0.25, 0.5, args.seconds] if t <= args.seconds))
 
         def errors(frames):
             # Frame k of a run is output frame k * stride, at k * stride / 60 s.

@@ -38,13 +38,13 @@ def run(binary, out_dir, motion, contact, substep, seconds):
     return [read_hair(os.path.join(frames, n)) for n in names], summary
 
 
-def error(a, b):
-    """RMS and max particle distance between two runs over all frames, in % of the mean strand
-    length (measured on the first frame of b)."""
+def error(a, b, frames=None):
+    """RMS and max particle distance between two runs over their first `frames` frames (None:
+    all), in % of the mean strand length (measured on the first frame of b)."""
     lengths = [sum(math.dist(s[i], s[i + 1]) for i in range(len(s) - 1)) for s in b[0]]
     length = sum(lengths) / len(lengths)
     total, count, worst = 0.0, 0, 0.0
-    for fa, fb in zip(a, b):
+    for fa, fb in list(zip(a, b))[:frames]:
         for sa, sb in zip(fa, fb):
             for pa, pb in zip(sa, sb):
                 d = math.dist(pa, pb)
