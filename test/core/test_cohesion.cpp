@@ -341,15 +341,21 @@ TEST(CohesionGrid, IsTranslationInvariantAndThreadIndependent) {
     c.grid_single_precision = single;
     HairState b = a.state;
     for (Vec3& x : b.position) x += shift;
-    HairState a1 = a.state, a2 = a.state;
+    HairState a1 = a.state, a2 = a.state, a3 = a.state, a5 = a.state;
     const int n1 = computeDisplayCohesion(a.model, c, &a1, 1);
     const int n2 = computeDisplayCohesion(a.model, c, &a2, 2);
+    // 3 and 5 threads: the splat's halves get unequal teams, and a team of more than one
+    // splits its half's node layers.
+    computeDisplayCohesion(a.model, c, &a3, 3);
+    computeDisplayCohesion(a.model, c, &a5, 5);
     computeDisplayCohesion(a.model, c, &b, 2);
     EXPECT_GT(n1, 0);
     EXPECT_EQ(n1, n2);
     double worst = 0.0;
     for (int i = 0; i < a.model.particleCount(); ++i) {
       ASSERT_EQ(a1.wet_position[i], a2.wet_position[i]) << "1 vs 2 threads, particle " << i;
+      ASSERT_EQ(a1.wet_position[i], a3.wet_position[i]) << "1 vs 3 threads, particle " << i;
+      ASSERT_EQ(a1.wet_position[i], a5.wet_position[i]) << "1 vs 5 threads, particle " << i;
       worst = std::max(worst, ((b.wet_position[i] - shift) - a1.wet_position[i]).norm());
     }
     std::printf("single %d: worst |p^w(shifted) - shift - p^w| %.3g m\n", single, worst);
