@@ -239,10 +239,11 @@ int updateDisplayCohesion(const HairModel& model, const CohesionConfig& c, doubl
   // A pass over every particle that only moves memory: plain arrays, each coordinate selected
   // without a branch, chunks of 4,096 particles (0.55-0.6x the time of Vec3 loads and chunks of
   // 256: 0.77-0.80 against 1.20-1.47 ms per held frame on dense_10k, 2 threads, AMD EPYC).
-  const double* __restrict p = state->position.data()->data();
-  const double* __restrict offset = state->display_offset.data()->data();
+  static_assert(sizeof(Vec3) == 3 * sizeof(double), "a Vec3 list is 3 doubles per particle");
+  const double* __restrict p = reinterpret_cast<const double*>(state->position.data());
+  const double* __restrict offset = reinterpret_cast<const double*>(state->display_offset.data());
   const double* __restrict saturation = state->saturation.data();
-  double* __restrict wet = state->wet_position.data()->data();
+  double* __restrict wet = reinterpret_cast<double*>(state->wet_position.data());
   return static_cast<int>(parallelSum(threads, 4096, model.particleCount(), [&](int i) -> int {
     const double* o = offset + 3 * size_t(i);
     const bool moved = saturation[i] > 0.0 && (o[0] != 0.0 || o[1] != 0.0 || o[2] != 0.0);

@@ -906,27 +906,36 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
 
 /// The positions' bounding box, on every thread: each takes a contiguous share, and the shares'
 /// boxes are joined in thread order (min and max are exact: the same box for any thread count).
+/// A non-finite coordinate anywhere makes the box NaN (min and max alone would skip it), so
+/// that the lattice is refused rather than indexed with it.
 void boundingBox(const Vec3List& p, int threads, Vec3* lo, Vec3* hi) {
   const int64_t n = static_cast<int64_t>(p.size());
   Vec3 share_lo[kMaxSolverThreads], share_hi[kMaxSolverThreads];
+  bool share_finite[kMaxSolverThreads];
   int64_t shares = 1;
   parallelRegion(std::min(threads, kMaxSolverThreads), [&](int64_t t, int64_t team) {
     if (t == 0) shares = team;
     const int64_t begin = n * t / team, end = n * (t + 1) / team;
     Vec3 a = Vec3::Constant(INFINITY), b = Vec3::Constant(-INFINITY);
+    bool finite = true;
     for (int64_t i = begin; i < end; ++i) {
       a = a.cwiseMin(p[i]);
       b = b.cwiseMax(p[i]);
+      finite = finite && std::isfinite(p[i].x() + p[i].y() + p[i].z());
     }
     share_lo[t] = a;
     share_hi[t] = b;
+    share_finite[t] = finite;
   });
   *lo = share_lo[0];
   *hi = share_hi[0];
+  bool finite = share_finite[0];
   for (int64_t t = 1; t < shares; ++t) {
     *lo = lo->cwiseMin(share_lo[t]);
     *hi = hi->cwiseMax(share_hi[t]);
+    finite = finite && share_finite[t];
   }
+  if (!finite) *lo = *hi = Vec3::Constant(NAN);
 }
 
 }  // namespace

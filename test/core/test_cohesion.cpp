@@ -370,6 +370,19 @@ TEST(CohesionGrid, IsTranslationInvariantAndThreadIndependent) {
   }
 }
 
+// The solver repairs non-finite strands before the display pass; a caller of the core API may
+// not. A NaN coordinate anywhere (not only at the first particle, whose box once carried it)
+// refuses the lattice instead of indexing it.
+TEST(CohesionGrid, ANonFinitePositionRefusesTheLattice) {
+  for (int bad : {0, 37}) {
+    WetScene a(40);
+    HairState grid = a.state;
+    grid.position[bad].y() = NAN;
+    computeDisplayCohesion(a.model, a.solver.cohesion, &grid, 2);
+    EXPECT_EQ(grid.warnings.cohesion_grid_fallbacks, 1u) << "NaN at particle " << bad;
+  }
+}
+
 TEST(CohesionGrid, FallsBackToExactWhenTheLatticeIsTooSmall) {
   WetScene a(40);
   HairState exact = a.state, grid = a.state;
