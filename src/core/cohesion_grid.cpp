@@ -592,6 +592,7 @@ inline std::pair<int, int> splatHalf(int half, int n) {
 /// lattice is bit-identical for any thread count.
 template <typename Particle>
 void splat(const Lattice& L, const Vec3List& p, int threads, Particle particle) {
+  static_assert(kSplatHalves == 2, "the team is split in two below, as are splatHalf's ranges");
   const int n = static_cast<int>(p.size());
   parallelRegion(threads, [&](int64_t t, int64_t team) {
     for (int half = 0; half < kSplatHalves; ++half) {
