@@ -1,5 +1,6 @@
 // The follower placement alone (updateFollowers, followers.h), or with --stage display the
-// cohesion display pass alone (computeDisplayCohesion, cohesion.h; --gather-at all or guides):
+// cohesion display pass alone (computeDisplayCohesion, cohesion.h; --gather-at all or guides,
+// --node-volumes: solver.cohesion.grid_node_volumes):
 // the built-in scene (curly, wet toward the tips, nodding) with the sphere behind the head of
 // bench_followers, at --strands output strands and follow ratio --follow-ratio, stepped
 // --warm-frames output frames so that the guides have moved; then the same frame's stage timed
@@ -13,7 +14,7 @@
 // HairState's layout differs between the two).
 // usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
 //                                 [--threads T] [--stage placement|display] [--gather-at
-//                                 all|guides]
+//                                 all|guides] [--node-volumes true|false]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -42,6 +43,7 @@ struct Options {
   int threads = 1;
   std::string stage = "placement";
   std::string gather_at = "all";
+  std::string node_volumes = "false";  ///< solver.cohesion.grid_node_volumes
 };
 
 bool parse(int argc, char** argv, Options* o) {
@@ -54,6 +56,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->stage = value;
     else if (a == "--gather-at")
       o->gather_at = value;
+    else if (a == "--node-volumes")
+      o->node_volumes = value;
     else if (a == "--strands")
       o->strands = v;
     else if (a == "--follow-ratio")
@@ -69,7 +73,8 @@ bool parse(int argc, char** argv, Options* o) {
   }
   return o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
          o->threads > 0 && (o->stage == "placement" || o->stage == "display") &&
-         (o->gather_at == "all" || o->gather_at == "guides");
+         (o->gather_at == "all" || o->gather_at == "guides") &&
+         (o->node_volumes == "true" || o->node_volumes == "false");
 }
 
 }  // namespace
@@ -80,7 +85,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: bench_follower_placement [--strands N > 0] [--follow-ratio K > 1] "
                  "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0] "
-                 "[--stage placement|display] [--gather-at all|guides]\n");
+                 "[--stage placement|display] [--gather-at all|guides] "
+                 "[--node-volumes true|false]\n");
     return 2;
   }
   io::SceneConfig scene = io::builtinScene();
@@ -88,6 +94,7 @@ int main(int argc, char** argv) {
   scene.groom.follow_ratio = o.follow_ratio;
   scene.solver.integrator.threads = o.threads;
   scene.solver.cohesion.gather_at = o.gather_at;
+  scene.solver.cohesion.grid_node_volumes = o.node_volumes == "true";
   HairModel model;
   std::string why;
   if (!io::buildSceneModel(scene, &model, &why)) {

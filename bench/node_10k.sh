@@ -4,7 +4,7 @@
 #
 #   bench/node_10k.sh [--seconds T] [--strands N] [--follow-ratio K] [--cohesion ours|off]
 #                     [--gather-at all|guides] [--refresh S] [--status-only] [--obstacle SPEC]
-#                     [--substep S] [--out DIR]
+#                     [--substep S] [--node-volumes true|false] [--out DIR]
 #
 # Starts a private roscore, head_motion_publisher (the built-in nod, 120 Hz) and the node on the
 # built-in scene (wet toward the tips) with N output strands of which N / K are guides, a sphere
@@ -17,14 +17,15 @@
 # sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at), the
 # display offsets evaluated every frame (--refresh S: at most every S s, solver.cohesion.
 # refresh_period_s), the solver's substep 5e-4 s, the default (--substep S: solver.integrator.
-# substep_s).
+# substep_s), the lattice's volumes at the particles (--node-volumes true: at its nodes,
+# solver.cohesion.grid_node_volumes).
 # --status-only: the probe subscribes to ~status alone, so ~strands has no
 # subscriber and nothing receives its 9 MB per frame on this machine (a consumer on another
 # machine, or none): the node's own capacity, without a local receiver competing for the cores.
 set -eu
 source "$(dirname "${BASH_SOURCE[0]}")/../scripts/setup_common.sh"
 seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 status_only=0 out=node_10k_out
-substep=0.0005
+substep=0.0005 node_volumes=false
 obstacle="sphere:x=-0.16,y=0.0,z=-0.05,r=0.05"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -37,6 +38,7 @@ while [ $# -gt 0 ]; do
     --status-only) status_only=1; shift ;;
     --obstacle) obstacle=$2; shift 2 ;;
     --substep) substep=$2; shift 2 ;;
+    --node-volumes) node_volumes=$2; shift 2 ;;
     --out) out=$2; shift 2 ;;
     *) echo "node_10k.sh: unknown option $1" >&2; exit 2 ;;
   esac
@@ -69,14 +71,16 @@ pids+=($!)
   _groom/strands:="$strands" _groom/follow_ratio:="$ratio" \
   _solver/cohesion/mode:="$cohesion" _solver/cohesion/gather_at:="$gather_at" \
   _solver/cohesion/refresh_period_s:="$refresh" _solver/integrator/substep_s:="$substep" \
+  _solver/cohesion/grid_node_volumes:="$node_volumes" \
   > "$out/node.log" 2>&1 &
 pids+=($!)
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" <<'PY'
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" <<'PY'
 import json, sys, time
 import rospy
 from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
 refresh, status_only, substep = float(sys.argv[7]), sys.argv[8] == "1", float(sys.argv[9])
+node_volumes = sys.argv[10] == "true"
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -109,7 +113,8 @@ mean = lambda xs: sum(xs) / len(xs)
 first, last = window["status"][0], window["status"][-1]
 r = {
     "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
-    "refresh_period_s": refresh, "substep_s": substep, "strands_subscribed": not status_only,
+    "refresh_period_s": refresh, "substep_s": substep, "node_volumes": node_volumes,
+    "strands_subscribed": not status_only,
     "particles": last.particles, "publish_rate_hz": 1.0 / last.frame_s,
     "window_wall_s": wall,
     "message_bytes": max(window["bytes"]) if window["bytes"] else 0,

@@ -26,6 +26,7 @@ namespace {
 /// dimensions; node (kx, ky, kz) sits at origin + spacing (kx, ky, kz).
 struct Lattice {
   Vec3 origin;
+  double h = 0.0;  ///< the kernel's radius, m
   double c = 0.0, inv_c = 0.0;
   int64_t cells = 0;  ///< nodes per kernel radius: h = cells c
   int64_t nx = 0, ny = 0, nz = 0;
@@ -461,13 +462,38 @@ WetSums gatherWetSingle(const Lattice& L, const WetNodes<float>& g, const Vec3& 
     return gatherWet<kCells>(L, g, r, h2);
 }
 
+/// The node volumes of CohesionConfig::grid_node_volumes: particle j's share of node n's volume is
+/// t_jn m_j / rho_n, the density taken at the node, where the particle volumes give it t_jn V_j.
+/// The own-strand shares weight each corner of a particle's cell by cornerFactors: m_j / rho_n at
+/// the 8 nodes (x fastest, then y, then z), or 1 each with the particle volumes (the volume then
+/// multiplies the corners' sum, as the splat did).
+struct NodeVolumes {
+  const double* inverse_density = nullptr;  ///< 1 / rho_n, 0 where no mass was splatted
+  const double* mass = nullptr;             ///< HairModel::mass_kg
+  template <bool kNodeVolumes, typename Real>
+  WCH_INLINE void cornerFactors(const Lattice& L, const CohesionNodeGrid& g, int j,
+                                Real* factor) const {
+    if constexpr (!kNodeVolumes) {
+      for (int k = 0; k < 8; ++k) factor[k] = Real(1);
+    } else {
+      const int64_t n = L.index(static_cast<int64_t>(g.kx[j]), static_cast<int64_t>(g.ky[j]),
+                                static_cast<int64_t>(g.kz[j]));
+      const int64_t up = L.nx * L.ny;
+      const int64_t offset[8] = {0, 1, L.nx, L.nx + 1, up, up + 1, up + L.nx, up + L.nx + 1};
+      for (int k = 0; k < 8; ++k)
+        factor[k] = static_cast<Real>(mass[j] * inverse_density[n + offset[k]]);
+    }
+  }
+};
+
 /// The own strand's share of the lattice sums for particle i: over the strand's particles j
 /// (i included), W~_ij = sum over the 8 nodes x_n of j's cell of t_jn W(|p_i - x_n|), the
 /// functional the lattice applies to one particle, summed as V_j W~_ij and V_j sigma_j W~_ij
 /// (p_j - p_i). Particles beyond the kernel's reach get q = 0 at every corner, so no distance
 /// test is needed and the strand runs in SIMD lanes.
-inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, int begin, int end,
-                              int i, double h2) {
+template <bool kNodeVolumes>
+inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const NodeVolumes& nv,
+                              int begin, int end, int i, double h2) {
   const double* __restrict rx = g.rx.data();
   const double* __restrict ry = g.ry.data();
   const double* __restrict rz = g.rz.data();
@@ -490,15 +516,17 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, int b
                  z2[2] = {dz0 * dz0, dz1 * dz1};
     const double wx[2] = {1.0 - tx[j], tx[j]}, wy[2] = {1.0 - ty[j], ty[j]},
                  wz[2] = {1.0 - tz[j], tz[j]};
+    double corner[8];
+    nv.cornerFactors<kNodeVolumes>(L, g, j, corner);
     double wt = 0.0;
     for (int az = 0; az < 2; ++az)
       for (int ay = 0; ay < 2; ++ay)
         for (int ax = 0; ax < 2; ++ax) {
           const double q = std::max(0.0, h2 - (x2[ax] + y2[ay] + z2[az]));
-          wt += (wx[ax] * wy[ay] * wz[az]) * nodeKernel(q, ka, kb);
+          wt += (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
         }
     const double ws = wet[j] * wt;
-    w_sum += vol[j] * wt;
+    w_sum += (kNodeVolumes ? 1.0 : vol[j]) * wt;
     px += ws * (rx[j] - xi);
     py += ws * (ry[j] - yi);
     pz += ws * (rz[j] - zi);
@@ -521,7 +549,9 @@ typedef float OwnLanes __attribute__((vector_size(4 * kCohesionFloatLanes)));
 /// exact integer in float, so each offset carries one rounding of its own size (relative 6e-8),
 /// not one of the lattice coordinates. Lanes past the strand's end read the next strand (or the
 /// arrays' padding) and are not stored.
-void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int end) {
+template <bool kNodeVolumes>
+void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolumes& nv, int begin,
+                           int end) {
   typedef OwnLanes V;
   constexpr int kW = kCohesionFloatLanes;
   const float* __restrict kx = g->kx_f.data();
@@ -547,15 +577,18 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int
               z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
       const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
                   wz[2] = {1.0f - tz[j], tz[j]};
+      float corner[8];
+      nv.cornerFactors<kNodeVolumes>(L, *g, j, corner);
       V wt = zero;
       for (int az = 0; az < 2; ++az)
         for (int ay = 0; ay < 2; ++ay)
           for (int ax = 0; ax < 2; ++ax) {
             const V q = positivePart(h2 - (x2[ax] + y2[ay] + z2[az]));
-            wt += (wx[ax] * wy[ay] * wz[az]) * nodeKernel(q, ka, kb);
+            wt +=
+                (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
           }
       const V ws = wet[j] * wt;
-      w_sum += vol[j] * wt;
+      w_sum += (kNodeVolumes ? 1.0f : vol[j]) * wt;
       px += ws * (ex + tx[j]);  // (p_j - p_i) / c = (k_j - k_i) + t_j - t_i
       py += ws * (ey + ty[j]);
       pz += ws * (ez + tz[j]);
@@ -646,14 +679,15 @@ struct WetSplat {
   }
 };
 
-/// out_n = sum_m K(|x_n - x_m|) in_m over the nodes m within h of n, with the two-sided node
-/// kernel (ka_both, kb_both), at every node whose window lies inside the lattice: the nodes of
-/// every particle's cell do (the lattice's margin is kCells + 2 nodes). An output row is a sum
-/// of input rows shifted by dx, which vectorises along x; layers run in parallel, and every
-/// node sums in the same order whatever the thread count.
+/// out_n = sum_m K(|x_n - x_m|) in_m over the nodes m within h of n, with the node kernel K(q) =
+/// q (q^2 + ka q + kb), at every node whose window lies inside the lattice: the nodes of every
+/// particle's cell do (the lattice's margin is kCells + 2 nodes). An output row is a sum of input
+/// rows shifted by dx, which vectorises along x; layers run in parallel, and every node sums in
+/// the same order whatever the thread count.
 template <int kCells>
-void convolveNodes(const Lattice& L, double h2, const double* __restrict in, double* __restrict out,
-                   int threads) {
+void convolveNodes(const Lattice& L, const double* __restrict in, double* __restrict out, double ka,
+                   double kb, int threads) {
+  const double h2 = L.h * L.h;
   constexpr int kW = 2 * kCells + 1;
   double taps[kW * kW * kW];  // K at the offset (dx, dy, dz) in [-kCells, kCells]^3; 0 beyond h
   for (int dz = -kCells; dz <= kCells; ++dz)
@@ -661,7 +695,7 @@ void convolveNodes(const Lattice& L, double h2, const double* __restrict in, dou
       for (int dx = -kCells; dx <= kCells; ++dx) {
         const double q = h2 - L.c * L.c * double(dx * dx + dy * dy + dz * dz);
         taps[((dz + kCells) * kW + dy + kCells) * kW + dx + kCells] =
-            q > 0.0 ? nodeKernel(q, L.ka_both, L.kb_both) : 0.0;
+            q > 0.0 ? nodeKernel(q, ka, kb) : 0.0;
       }
   const int64_t x_lo = kCells, x_hi = L.nx - kCells;
   parallelFor(threads, Schedule::kStatic, 0, L.nz - 2 * kCells, [&](int64_t layer) {
@@ -695,14 +729,19 @@ WCH_INLINE double interpolateNodes(const Lattice& L, const CellPosition& cell, c
   return (1.0 - tz) * low + tz * high;
 }
 
-/// Pass 2's halves summed (splat) and spread into the node arrays the gathers read: the volume
-/// into scalar, the side-by-side splat (wet_splat, 4 per node) into wet_volume, qx, qy, qz,
-/// and with `single` their float copies, in one pass over the nodes.
-void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads) {
+/// The wet splat's halves summed (splat) and spread into the node arrays the gathers read: the
+/// volume into scalar, the side-by-side splat (wet_splat, 4 per node) into wet_volume, qx, qy,
+/// qz, and with `single` their float copies, in one pass over the nodes. With node volumes
+/// (density_norm > 0: splatWithNodeVolumes) scalar holds the summed mass and wet_volume the node
+/// densities over density_norm: every sum is divided by the node's density, whose inverse goes
+/// to scalar_b (0 where no mass was splatted), and the halves of scalar are not summed again.
+void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, double density_norm,
+                    int threads) {
+  const bool node_volumes = density_norm > 0.0;
   const double* __restrict w = g->wet_splat.data();
   const double* __restrict w_b = g->wet_splat_b.data();
   double* __restrict v = g->scalar.data();
-  const double* __restrict v_b = g->scalar_b.data();
+  double* __restrict v_b = g->scalar_b.data();
   float* __restrict vf = g->scalar_f.data();
   double* __restrict s = g->wet_volume.data();
   double* __restrict x = g->qx.data();
@@ -713,11 +752,19 @@ void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, int threads
   float* __restrict yf = g->qy_f.data();
   float* __restrict zf = g->qz_f.data();
   parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) {
-    v[k] += v_b[k];
-    s[k] = w[4 * k] + w_b[4 * k];
-    x[k] = w[4 * k + 1] + w_b[4 * k + 1];
-    y[k] = w[4 * k + 2] + w_b[4 * k + 2];
-    z[k] = w[4 * k + 3] + w_b[4 * k + 3];
+    double f = 1.0;  // the node's inverse density with node volumes; exact otherwise
+    if (node_volumes) {
+      const double density = density_norm * s[k];
+      f = v[k] > 0.0 && density > 0.0 ? 1.0 / density : 0.0;
+      v_b[k] = f;
+      v[k] *= f;
+    } else {
+      v[k] += v_b[k];
+    }
+    s[k] = (w[4 * k] + w_b[4 * k]) * f;
+    x[k] = (w[4 * k + 1] + w_b[4 * k + 1]) * f;
+    y[k] = (w[4 * k + 2] + w_b[4 * k + 2]) * f;
+    z[k] = (w[4 * k + 3] + w_b[4 * k + 3]) * f;
     if (!single) return;
     vf[k] = static_cast<float>(v[k]);
     sf[k] = static_cast<float>(s[k]);
@@ -742,6 +789,108 @@ void addInto(std::vector<double>* a, const std::vector<double>& b, int64_t count
   double* __restrict x = a->data();
   const double* __restrict y = b.data();
   parallelFor(threads, Schedule::kStatic, 0, count, [&](int64_t k) { x[k] += y[k]; });
+}
+
+/// Splats particle j's values onto its half's copies (WetSplat): volume v and wet share vs.
+inline WetSplat wetSplat(CohesionNodeGrid* g, const Lattice& L, const CellPosition& cell, int half,
+                         double v, double vs) {
+  WetSplat add(half == 0 ? g->scalar.data() : g->scalar_b.data(),
+               half == 0 ? g->wet_splat.data() : g->wet_splat_b.data(), v, vs);
+  for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
+    add.ox[a] = cell.r.x() - (cell.k[0] + a) * L.c;
+    add.oy[a] = cell.r.y() - (cell.k[1] + a) * L.c;
+    add.oz[a] = cell.r.z() - (cell.k[2] + a) * L.c;
+  }
+  return add;
+}
+
+/// The density rho = norm sum_j m_j W(|x - p_j|) of eq. (10)'s volumes, from the node sums.
+inline double densityNorm(double h) { return 315.0 / (64.0 * M_PI * std::pow(h, 9)); }
+
+/// The splatted mass's halves summed (scalar), the density at the nodes convolved with the node
+/// kernel (ka, kb) into wet_volume (unnormalised: densityNorm), and the density and volume V = m
+/// / rho of particles [0, count) from their cells' nodes.
+template <int kCells>
+void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, int count,
+                       double ka, double kb, HairState* state, int threads) {
+  CohesionNodeGrid& g = state->cohesion_grid;
+  const Vec3List& p = state->position;
+  addInto(&g.scalar, g.scalar_b, nodes, threads);
+  const double norm = densityNorm(L.h);
+  double* const node_density = g.wet_volume.data();
+  convolveNodes<kCells>(L, g.scalar.data(), node_density, ka, kb, threads);
+  parallelFor(threads, Schedule::kStatic, 0, count, [&](int i) {
+    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
+    g.volume[i] = model.mass_kg[i] / state->density[i];
+  });
+}
+
+/// The node arrays of eq. (10) with the particle volumes V_j = m_j / rho_j: pass 1 splats the
+/// mass (the two halves' copies summed); the density at the nodes, then at every particle from
+/// its cell's nodes (the lattice's density field is smooth on the scale h: convolving once per
+/// node and interpolating costs a fraction of a gather per particle, at 1.02x its error against
+/// exact, docs/physics.md 7.3), followers included with gather_at "guides"; pass 2 splats V,
+/// V sigma and V sigma (p - x_n). Pass 2's node arrays are free until it starts: the node
+/// densities go to wet_volume.
+template <int kCells>
+NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, int64_t nodes,
+                                     int gathered, bool single, HairState* state, int threads) {
+  CohesionNodeGrid& g = state->cohesion_grid;
+  const Vec3List& p = state->position;
+  const int n = model.particleCount();
+  zero(&g.scalar, &g.scalar_b, nodes, threads);
+  double* const mass_nodes[kSplatHalves] = {g.scalar.data(), g.scalar_b.data()};
+  splat(L, p, threads, [&](int j, const CellPosition&, int half) {
+    const double m = model.mass_kg[j];
+    double* const nodes_of_half = mass_nodes[half];
+    return
+        [m, nodes_of_half](int64_t node, int, int, int, double t) { nodes_of_half[node] += t * m; };
+  });
+  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads);
+
+  zero(&g.scalar, &g.scalar_b, nodes, threads);
+  zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
+  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
+  // its own: with gather_at "guides" the followers' would be written and never read).
+  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
+    g.wet_share[j] = g.volume[j] * state->saturation[j];
+    if (!single) return;
+    g.volume_f[j] = static_cast<float>(g.volume[j]);
+    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
+  });
+  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
+    return wetSplat(&g, L, cell, half, g.volume[j], g.volume[j] * state->saturation[j]);
+  });
+  spreadWetSplat(&g, nodes, single, 0.0, threads);
+  return NodeVolumes{};
+}
+
+/// The node arrays of eq. (10) with the node volumes (CohesionConfig::grid_node_volumes): one
+/// splat of m, m sigma and m sigma (p - x_n); the density at the nodes from the mass, each node's
+/// sums divided by it (spreadWetSplat), and the gathered particles' densities (their own weight,
+/// include_self) from their cells' nodes. The node densities pass one trilinear interpolation
+/// (the splat), not two: the kernel's correction once (L.ka, L.kb). The followers' densities
+/// (HairState::density) are not computed with gather_at "guides".
+template <int kCells>
+NodeVolumes splatWithNodeVolumes(const HairModel& model, const Lattice& L, int64_t nodes,
+                                 int gathered, bool single, HairState* state, int threads) {
+  CohesionNodeGrid& g = state->cohesion_grid;
+  const Vec3List& p = state->position;
+  zero(&g.scalar, &g.scalar_b, nodes, threads);
+  zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
+  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
+    const double m = model.mass_kg[j];
+    return wetSplat(&g, L, cell, half, m, m * state->saturation[j]);
+  });
+  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads);
+  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
+    g.wet_share[i] = state->saturation[i];  // the corner factors carry m / rho_n
+    if (!single) return;
+    g.volume_f[i] = static_cast<float>(g.volume[i]);
+    g.wet_share_f[i] = static_cast<float>(g.wet_share[i]);
+  });
+  spreadWetSplat(&g, nodes, single, densityNorm(L.h), threads);
+  return NodeVolumes{g.scalar_b.data(), model.mass_kg.data()};
 }
 
 }  // namespace
@@ -792,55 +941,10 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.tz_f[j] = static_cast<float>(g.tz[j]);
   });
 
-  // Pass 1: mass to the nodes (the two halves' copies summed), density and volume of every
-  // particle.
-  zero(&g.scalar, &g.scalar_b, nodes, threads);
-  double* const mass_nodes[kSplatHalves] = {g.scalar.data(), g.scalar_b.data()};
-  splat(L, p, threads, [&](int j, const CellPosition&, int half) {
-    const double m = model.mass_kg[j];
-    double* const nodes_of_half = mass_nodes[half];
-    return
-        [m, nodes_of_half](int64_t node, int, int, int, double t) { nodes_of_half[node] += t * m; };
-  });
-  addInto(&g.scalar, g.scalar_b, nodes, threads);
-  // The density at the nodes, then at every particle from its cell's nodes (the lattice's
-  // density field is smooth on the scale h: convolving once per node and interpolating costs a
-  // fraction of a gather per particle, at 1.02x its error against exact, docs/physics.md 7.3),
-  // followers included with gather_at "guides": every particle has its own density, as with
-  // the sums at every particle. Pass 2's node arrays are free until it starts: the node
-  // densities go to wet_volume.
-  const double norm = 315.0 / (64.0 * M_PI * std::pow(h, 9));
-  double* const node_density = g.wet_volume.data();
-  convolveNodes<kCells>(L, h2, g.scalar.data(), node_density, threads);
-  parallelFor(threads, Schedule::kStatic, 0, n, [&](int i) {
-    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
-    g.volume[i] = model.mass_kg[i] / state->density[i];
-  });
-
-  // Pass 2: V, V sigma and V sigma (p - x_n) to the nodes.
-  zero(&g.scalar, &g.scalar_b, nodes, threads);
-  zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
-  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
-  // its own: with gather_at "guides" the followers' would be written and never read).
-  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
-    g.wet_share[j] = g.volume[j] * state->saturation[j];
-    if (!single) return;
-    g.volume_f[j] = static_cast<float>(g.volume[j]);
-    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
-  });
-  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
-    WetSplat add(half == 0 ? g.scalar.data() : g.scalar_b.data(),
-                 half == 0 ? g.wet_splat.data() : g.wet_splat_b.data(), g.volume[j],
-                 g.volume[j] * state->saturation[j]);
-    for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
-      add.ox[a] = cell.r.x() - (cell.k[0] + a) * L.c;
-      add.oy[a] = cell.r.y() - (cell.k[1] + a) * L.c;
-      add.oz[a] = cell.r.z() - (cell.k[2] + a) * L.c;
-    }
-    return add;
-  });
-
-  spreadWetSplat(&g, nodes, single, threads);
+  const NodeVolumes volumes =
+      cfg.grid_node_volumes
+          ? splatWithNodeVolumes<kCells>(model, L, nodes, gathered, single, state, threads)
+          : splatWithParticleVolumes<kCells>(model, L, nodes, gathered, single, state, threads);
   const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
                              g.qz.data()};
   // The own strands' shares in float, a strand at a time (strands with a wet particle only;
@@ -850,12 +954,20 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
       const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
       bool wet_strand = at_guides;
       for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
-      if (wet_strand) ownStrandSharesSingle(L, &g, begin, end);
+      if (!wet_strand) return;
+      if (volumes.inverse_density)
+        ownStrandSharesSingle<true>(L, &g, volumes, begin, end);
+      else
+        ownStrandSharesSingle<false>(L, &g, volumes, begin, end);
     });
   }
   const double c6 = L.c * L.c * L.c * L.c * L.c * L.c;  // the float shares' lattice units
   const WetNodes<float> wet_f{g.scalar_f.data(), g.wet_volume_f.data(), g.qx_f.data(),
                               g.qy_f.data(), g.qz_f.data()};
+  auto ownStrandShareOf = [&](int begin, int end, int i) {
+    return volumes.inverse_density ? ownStrandShare<true>(L, g, volumes, begin, end, i, h2)
+                                   : ownStrandShare<false>(L, g, volumes, begin, end, i, h2);
+  };
   const detail::DisplayWrite write = detail::displayWrite(cfg, state);
   const int clumped = static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
     const bool wet_particle = state->saturation[i] > 0.0;
@@ -875,14 +987,14 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
       own.weight = c6 * double(g.own_weight_f[i]);
       own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
     } else {
-      own = ownStrandShare(L, g, begin, end, i, h2);
+      own = ownStrandShareOf(begin, end, i);
     }
     // Float round-off in either sum is ~1e-6 of it: where the other strands' share is below
     // kSingleGuard of the own strand's it would be a large part of the difference; both again in
     // double there.
     if (single && !(all.weight - own.weight > kSingleGuard * own.weight)) {
       all = gatherWet<kCells>(L, wet, ri, h2);
-      own = ownStrandShare(L, g, begin, end, i, h2);
+      own = ownStrandShareOf(begin, end, i);
     }
     double weight_sum = all.weight - own.weight;
     // Round-off of the cancellation: no other strand within reach.
@@ -975,6 +1087,7 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   if (n == 0 || g.scalar.empty()) return -1;
   const double h = cfg.radius_m, h2 = h * h;
   Lattice L;
+  L.h = h;
   L.cells = cfg.grid_cells_per_radius;
   L.c = h / cfg.grid_cells_per_radius;
   L.inv_c = 1.0 / L.c;

@@ -271,13 +271,15 @@ TEST(Followers, WithTheSumsAtTheGuidesAFollowerOnAGuideTakesItsDisplay) {
 }
 
 TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
-  // Both evaluations give every particle, followers included, its own density (exact, or the
-  // lattice's interpolated at it), so the guides' sums, and their p^w, are those of the sums at
-  // every particle to the bit; the followers' differ (interpolated) but stay within the
-  // kernel's reach, lambda h, of their positions.
-  for (const char* evaluation : {"exact", "grid"}) {
+  // Both evaluations give every particle, followers included, its volume (from its exact
+  // density, the lattice's interpolated at it, or with node volumes its share of the nodes'),
+  // so the guides' sums, and their p^w, are those of the sums at every particle to the bit; the
+  // followers' differ (interpolated) but stay within the kernel's reach, lambda h, of their
+  // positions.
+  for (const char* evaluation : {"exact", "grid", "grid node volumes"}) {
     SolverConfig all;
-    all.cohesion.evaluation = evaluation;
+    all.cohesion.evaluation = std::string(evaluation).substr(0, 5) == "exact" ? "exact" : "grid";
+    all.cohesion.grid_node_volumes = std::string(evaluation) == "grid node volumes";
     SolverConfig guides = all;
     guides.cohesion.gather_at = "guides";
     const HairModel m = followerModel(curlyGroom(60), 4, all);

@@ -198,6 +198,12 @@ struct CohesionConfig {
   /// own-strand cancellation, have both sums redone in double. Chosen by measurement
   /// (docs/physics.md §7.3).
   bool grid_single_precision = true;
+  /// "grid": the volumes of eq. (10)'s Shepard weights taken at the lattice's nodes, V = m /
+  /// rho(x_n) for a particle's share of node n, instead of at each particle, V = m / rho(p): one
+  /// splat of every particle instead of two and no density per particle (the guides' only with
+  /// gather_at "guides"). Cheaper, with a larger error against exact (docs/physics.md §7.3);
+  /// opt-in.
+  bool grid_node_volumes = false;
   /// Where eq. (10)'s sums are evaluated when the groom has followers (followers.h): "all"
   /// output particles, or the "guides" only, each follower then taking its guides' display
   /// offsets interpolated as its position is (docs/followers.md: about half the cost, but not a
