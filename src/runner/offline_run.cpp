@@ -114,6 +114,7 @@ std::string RunSummary::toJson() const {
       .add("cohesion", cohesion)
       .add("cohesion_gather_at", cohesion_gather_at)
       .add("cohesion_refresh_period_s", cohesion_refresh_period_s)
+      .add("cohesion_node_volumes", cohesion_node_volumes)
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
@@ -250,6 +251,7 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
                                         : c.evaluation;
   s.cohesion_gather_at = c.gather_at;
   s.cohesion_refresh_period_s = c.refresh_period_s;
+  s.cohesion_node_volumes = c.mode == "ours" && c.evaluation == "grid" && c.grid_node_volumes;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);
   return s;

@@ -125,6 +125,11 @@ placement_rc=$?
 check "bench_follower_placement --stage display runs (got $placement_rc)" "[ $placement_rc -eq 0 ]"
 check "bench_follower_placement --stage display reports the time per output particle" \
   "grep -q '(1280 output particles), display pass, sums at guides, .*ns per particle' $out/display.txt"
+"$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 3 --stage display \
+  --gather-at guides --node-volumes true > "$out/display_nv.txt" 2>&1
+placement_rc=$?
+check "bench_follower_placement --node-volumes true runs (got $placement_rc)" \
+  "[ $placement_rc -eq 0 ] && grep -q 'display pass, sums at guides, .*ns per particle' $out/display_nv.txt"
 "$placement" --follow-ratio 1 > /dev/null 2> "$out/placement_err"
 placement_rc=$?
 check "bench_follower_placement refuses --follow-ratio 1 (got $placement_rc)" \
@@ -133,5 +138,17 @@ check "bench_follower_placement refuses --follow-ratio 1 (got $placement_rc)" \
 placement_rc=$?
 check "bench_follower_placement refuses an unknown stage (got $placement_rc)" \
   "[ $placement_rc -eq 2 ] && grep -q 'stage placement|display' $out/placement_err"
+# The lattice's error against exact (bench/bench_lattice_error.cpp) runs and reports it for both
+# volumes, and refuses a single frame.
+lattice=$(tool_path bench_lattice_error "$build") || exit 1
+"$lattice" --strands 60 --follow-ratio 4 --frames 12 > "$out/lattice.txt" 2>&1
+lattice_rc=$?
+check "bench_lattice_error runs (got $lattice_rc)" "[ $lattice_rc -eq 0 ]"
+check "bench_lattice_error reports both volumes' errors" \
+  "grep -q '^particle volumes: simulated strands RMS .* mm, max .*followers RMS' $out/lattice.txt && grep -q '^node volumes: ' $out/lattice.txt && grep -q 'exact offset' $out/lattice.txt"
+"$lattice" --frames 1 > /dev/null 2> "$out/lattice_err"
+lattice_rc=$?
+check "bench_lattice_error refuses --frames 1 (got $lattice_rc)" \
+  "[ $lattice_rc -eq 2 ] && grep -q 'frames F >= 2' $out/lattice_err"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -202,11 +202,13 @@ struct RunSummary {
   std::string lane_layout;
   int threads = 1;  ///< solver.integrator.threads
   /// The cohesion display pass that ran: "off", "exact" or "grid<nodes per radius>" (mode
-  /// "ours"; the baselines' mode otherwise), where its sums ran (solver.cohesion.gather_at) and
-  /// how often its offsets were refreshed (refresh_period_s; 0: every step).
+  /// "ours"; the baselines' mode otherwise), where its sums ran (solver.cohesion.gather_at), how
+  /// often its offsets were refreshed (refresh_period_s; 0: every step) and whether the lattice
+  /// took its volumes at its nodes (grid_node_volumes).
   std::string cohesion;
   std::string cohesion_gather_at;
   double cohesion_refresh_period_s = 0.0;
+  bool cohesion_node_volumes = false;
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
   /// seconds (all threads).
   std::vector<uint64_t> stage_particles;
