@@ -3,7 +3,7 @@
 # build and publish at 60 Hz on wall-clock time, and whether the node keeps up.
 #
 #   bench/node_10k.sh [--seconds T] [--strands N] [--follow-ratio K] [--cohesion ours|off]
-#                     [--gather-at all|guides] [--refresh S] [--status-only] [--obstacle SPEC]
+#                     [--gather-at all|guides] [--refresh S] [--status-only | --sink] [--obstacle SPEC]
 #                     [--substep S] [--node-volumes true|false] [--out DIR]
 #
 # Starts a private roscore, head_motion_publisher (the built-in nod, 120 Hz) and the node on the
@@ -22,9 +22,13 @@
 # --status-only: the probe subscribes to ~status alone, so ~strands has no
 # subscriber and nothing receives its 9 MB per frame on this machine (a consumer on another
 # machine, or none): the node's own capacity, without a local receiver competing for the cores.
+# --sink: wet_curly_hair_strands_sink subscribes to ~strands instead of the probe, taking each
+# message as raw bytes, so the node serializes and sends every frame as to any subscriber while
+# the receiving costs this machine as little as it can; the probe counts what the sink took.
 set -eu
 source "$(dirname "${BASH_SOURCE[0]}")/../scripts/setup_common.sh"
-seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 status_only=0 out=node_10k_out
+seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 status_only=0 sink=0
+out=node_10k_out
 substep=0.0005 node_volumes=false
 obstacle="sphere:x=-0.16,y=0.0,z=-0.05,r=0.05"
 while [ $# -gt 0 ]; do
@@ -36,6 +40,7 @@ while [ $# -gt 0 ]; do
     --gather-at) gather_at=$2; shift 2 ;;
     --refresh) refresh=$2; shift 2 ;;
     --status-only) status_only=1; shift ;;
+    --sink) sink=1; shift ;;
     --obstacle) obstacle=$2; shift 2 ;;
     --substep) substep=$2; shift 2 ;;
     --node-volumes) node_volumes=$2; shift 2 ;;
@@ -74,13 +79,19 @@ pids+=($!)
   _solver/cohesion/grid_node_volumes:="$node_volumes" \
   > "$out/node.log" 2>&1 &
 pids+=($!)
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" <<'PY'
+if [ "$sink" = 1 ]; then
+  "$(wch_bin wet_curly_hair_strands_sink)" __name:=strands_sink > "$out/sink.log" 2>&1 &
+  pids+=($!)
+  status_only=1  # the probe itself takes no strands
+fi
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" "$sink" <<'PY'
 import json, sys, time
 import rospy
+from std_msgs.msg import UInt64
 from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
 refresh, status_only, substep = float(sys.argv[7]), sys.argv[8] == "1", float(sys.argv[9])
-node_volumes = sys.argv[10] == "true"
+node_volumes, sink = sys.argv[10] == "true", sys.argv[11] == "1"
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -90,7 +101,13 @@ def on_strands(msg):
 def on_status(msg):
     if window["on"]:
         window["status"].append(msg)
-if not status_only:
+def on_sink(msg):
+    if window["on"]:
+        window["messages"] += 1
+        window["bytes"].append(msg.data)
+if sink:
+    rospy.Subscriber("/strands_sink/received", UInt64, on_sink, queue_size=100)
+elif not status_only:
     rospy.Subscriber("/wet_curly_hair/strands", rospy.AnyMsg, on_strands, queue_size=2, buff_size=1 << 26)
 rospy.Subscriber("/wet_curly_hair/status", Status, on_status, queue_size=100)
 deadline = time.time() + 300
@@ -107,14 +124,15 @@ time.sleep(seconds)
 window["on"] = False
 wall = time.time() - t0
 st = [m for m in window["status"] if m.step_time_s > 0]
-if not st or (not window["bytes"] and not status_only):
+if not st or (not window["bytes"] and (sink or not status_only)):
     sys.exit("node_10k: no status or strands messages in the window")
 mean = lambda xs: sum(xs) / len(xs)
 first, last = window["status"][0], window["status"][-1]
 r = {
     "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
     "refresh_period_s": refresh, "substep_s": substep, "node_volumes": node_volumes,
-    "strands_subscribed": not status_only,
+    "strands_subscribed": sink or not status_only,
+    "consumer": "sink" if sink else ("none" if status_only else "probe"),
     "particles": last.particles, "publish_rate_hz": 1.0 / last.frame_s,
     "window_wall_s": wall,
     "message_bytes": max(window["bytes"]) if window["bytes"] else 0,

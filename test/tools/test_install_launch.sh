@@ -27,7 +27,7 @@ for f in setup.bash _setup_util.py .catkin lib/libwet_curly_hair_core.so lib/lib
     lib/python3/dist-packages/wet_curly_hair/srv/__init__.py; do
   check "installs $f" "[ -e $prefix/$f ]"
 done
-for f in wet_curly_hair_node head_motion_publisher wet_curly_hair_lockstep_clock \
+for f in wet_curly_hair_node head_motion_publisher wet_curly_hair_lockstep_clock wet_curly_hair_strands_sink \
     wet_curly_hair_wetting wet_curly_hair_bag_to_hair wet_curly_hair_run wet_curly_hair_render \
     wet_curly_hair_make_octomap; do
   check "installs lib/wet_curly_hair/$f" "[ -x $prefix/lib/wet_curly_hair/$f ]"

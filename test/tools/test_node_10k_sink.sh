@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# bench/node_10k.sh end to end on a small groom: with --sink, wet_curly_hair_strands_sink takes
+# the node's ~strands as raw bytes and the probe counts what it took (the size of every frame);
+# with --status-only nothing takes them. The timings themselves are the bench's, not checked here.
+set -u
+build=$1
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
+tool_path wet_curly_hair_strands_sink "$build" > /dev/null || exit 1
+out=$(mktemp -d)
+trap 'rm -rf "$out"' EXIT
+pass=0 fail=0
+check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((fail + 1)); fi; }
+field() { /usr/bin/python3 -c "import json; print(json.load(open('$1'))['$2'])"; }
+
+WCH_BUILD=$build bench/node_10k.sh --strands 60 --follow-ratio 4 --seconds 2 --sink \
+  --out "$out/sink" > "$out/sink.txt" 2>&1
+rc=$?
+check "node_10k.sh --sink runs (got $rc)" "[ $rc -eq 0 ]"
+json=$out/sink/node_10k.json
+# 60 strands x 32: positions, saturation and display positions as float32, 23,040 bytes.
+check "the sink took the frames" \
+  "[ \"\$(field $json consumer)\" = sink ] && /usr/bin/python3 -c \"import json,sys; d=json.load(open('$json')); sys.exit(0 if d['messages_received_per_s'] > 10 and d['message_bytes'] > 23040 else 1)\""
+WCH_BUILD=$build bench/node_10k.sh --strands 60 --follow-ratio 4 --seconds 2 --status-only \
+  --out "$out/none" > "$out/none.txt" 2>&1
+rc=$?
+json=$out/none/node_10k.json
+check "node_10k.sh --status-only runs, and nothing takes the frames (got $rc)" \
+  "[ $rc -eq 0 ] && [ \"\$(field $json consumer)\" = none ] && [ \"\$(field $json message_bytes)\" = 0 ]"
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]
