@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # bench/node_10k.sh end to end on a small groom: with --sink, wet_curly_hair_strands_sink takes
 # the node's ~strands as raw bytes and the probe counts what it took (the size of every frame);
-# with --status-only nothing takes them. The timings themselves are the bench's, not checked here.
+# with --status-only nothing takes them, and the node builds none. The timings themselves are the
+# bench's, not checked here.
 set -u
 build=$1
 source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
@@ -26,5 +27,8 @@ rc=$?
 json=$out/none/node_10k.json
 check "node_10k.sh --status-only runs, and nothing takes the frames (got $rc)" \
   "[ $rc -eq 0 ] && [ \"\$(field $json consumer)\" = none ] && [ \"\$(field $json message_bytes)\" = 0 ]"
+# A frame nobody takes is not built: no conversion time without a subscriber, some with one.
+check "the node builds ~strands only for a subscriber" \
+  "[ \"\$(field $json conversion_time_s)\" = 0.0 ] && /usr/bin/python3 -c \"import json,sys; sys.exit(0 if json.load(open('$out/sink/node_10k.json'))['conversion_time_s'] > 0 else 1)\""
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
