@@ -50,7 +50,8 @@ const char* stageName(int stage) {
                                                   "cohesion",
                                                   "cohesion_forces",
                                                   "hair_contact",
-                                                  "followers"};
+                                                  "followers",
+                                                  "lanes"};
   return stage >= 0 && stage < kStageCount ? kNames[stage] : "unknown";
 }
 

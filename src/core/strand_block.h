@@ -894,10 +894,14 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
                        const StrandFlags* flags, int k_begin, int k_end, int nsub, double h,
                        HairState* state, StrandScratch* scratch, StepStats* stats) {
   Block<S> blk(model, config, inputs, plan, state, scratch, stats, h);
+  StageLaps laps(inputs.clock, stats);
   initBlock(&blk, first_strand, active, flags);
+  laps.lap(kStageLanes, uint64_t(blk.n) * active);
   for (int k = k_begin; k < k_end; ++k)
     substepBlock(blk, substepMotion(inputs, double(k) / nsub, double(k + 1) / nsub, h));
+  laps.skip();  // the substeps charged their own stages
   scatterBlock(blk);
+  laps.lap(kStageLanes, 0);
   double largest = laneValue(blk.max_strain, 0);
   for (int l = 1; l < active; ++l) largest = std::max(largest, laneValue(blk.max_strain, l));
   return largest;

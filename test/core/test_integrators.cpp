@@ -247,6 +247,9 @@ TEST(Integrators, StageTimesAndCountsAreReported) {
   EXPECT_EQ(stats.stage_particles[kStageObstacleCollision], 0u);
   EXPECT_EQ(stats.stage_cpu_s[kStageCurl], 0.0);
   EXPECT_GT(stats.stage_cpu_s[kStageFrames], 0.0);
+  // The lanes' gather and scatter: every particle once per step, and timed.
+  EXPECT_EQ(stats.stage_particles[kStageLanes], uint64_t(m.particleCount()));
+  EXPECT_GT(stats.stage_cpu_s[kStageLanes], 0.0);
   EXPECT_GT(stats.wall_s, 0.0);
   EXPECT_STREQ(stageName(kStageObstacleCollision), "obstacle_collision");
 }

@@ -41,6 +41,8 @@ TEST(NodeTopics, StrandsHaveConsistentSizesAndStepOnTheFrameGrid) {
 TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
   ros::NodeHandle nh;
   Latest<wet_curly_hair::Status> status(nh, "/wet_curly_hair/status");
+  // A subscriber, so that the node builds and sends ~strands (it does not for nobody).
+  Latest<wet_curly_hair::Strands> strands(nh, "/wet_curly_hair/strands");
   wet_curly_hair::Status s;
   ASSERT_TRUE(status.waitFor(
       30.0, [](const wet_curly_hair::Status& m) { return m.head_pose_ok && m.step > 5; }, &s))
@@ -60,9 +62,9 @@ TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
   // Every solver stage is named, timed and counted; the integrate stage ran on every
   // particle-substep of the 8 guides (~follow_ratio 3), the followers stage once per frame on
   // the 16 followers' particles.
-  ASSERT_EQ(s.stage_names.size(), 13u);
-  ASSERT_EQ(s.stage_times_s.size(), 13u);
-  ASSERT_EQ(s.stage_particles.size(), 13u);
+  ASSERT_EQ(s.stage_names.size(), 14u);
+  ASSERT_EQ(s.stage_times_s.size(), 14u);
+  ASSERT_EQ(s.stage_particles.size(), 14u);
   EXPECT_EQ(s.stage_names[4], "integrate");
   EXPECT_EQ(s.stage_particles[4], uint64_t(s.substeps) * 8u * 16u);
   EXPECT_GT(s.stage_times_s[4], 0.0);
@@ -70,6 +72,8 @@ TEST(NodeTopics, StatusReportsSizesTimingAndThePose) {
   EXPECT_EQ(s.stage_particles[11], 0u);  // off in this scene: nothing ran
   EXPECT_EQ(s.stage_names[12], "followers");
   EXPECT_EQ(s.stage_particles[12], 16u * 16u);
+  EXPECT_EQ(s.stage_names[13], "lanes");  // the guides into their SIMD blocks, once per frame
+  EXPECT_EQ(s.stage_particles[13], 8u * 16u);
   // Overhead of the node itself against the solver step, averaged over 2 s of statuses.
   double step = 0, conv = 0, pub = 0, tf = 0;
   int n = 0;

@@ -42,6 +42,9 @@ enum Stage : int {
   kStageCohesionForces,     ///< force-based baselines lin/kim (per substep, all strands)
   kStageHairContact,        ///< hair-hair contact forces (per substep, spheres; hair_contact.h)
   kStageFollowers,          ///< followers placed from their guides (per step, followers.h)
+  /// the strands' state and constants into their SIMD blocks and back, and the step's per-strand
+  /// setup (per step; particles once per step)
+  kStageLanes,
   kStageCount
 };
 
