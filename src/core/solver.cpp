@@ -116,14 +116,13 @@ int blockStrands(const HairModel& model, int first_strand, int width) {
   return count;
 }
 
-void prepareStrandStep(const HairModel& model, const SolverConfig& config, int strand,
-                       const StrandFlags& flags, double h, HairState* state,
+void prepareStrandStep(const HairModel& model, const SolverConfig& config, const SolverPlan& plan,
+                       int strand, const StrandFlags& flags, double h, HairState* state,
                        StrandScratch* scratch) {
   if (!stiffnessActive(config, flags)) return;
   const StiffnessConfig& st = config.stiffness;
   const int begin = model.strandBegin(strand);
-  const double dry =
-      stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h, st.reference_step_s);
+  const double dry = plan.dry_velocity_factor;
   // A particle's factor from the last step stands while its saturation and the strand's other
   // inputs are the same: the same function of the same values.
   StiffnessFactorKey key;
@@ -175,6 +174,9 @@ SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h
   plan.lane_width = config.integrator.laneWidth();
   plan.lane_float = config.integrator.laneFloat();
   plan.damping_passes = plan.implicit ? 0 : dampingPassCount(model, config, h);
+  const StiffnessConfig& st = config.stiffness;
+  plan.dry_velocity_factor =
+      stiffnessFactor(st.global_factor, st.wet_factor, st.dry_factor, 0.0, h, st.reference_step_s);
   return plan;
 }
 

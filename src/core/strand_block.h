@@ -253,7 +253,7 @@ void gatherBlock(Block<S>& blk) {
   for (int l = 0; l < Block<S>::kWidth; ++l) {
     // A padding lane repeats the last real strand, whose factors the scratch already holds.
     if (blk.realLane(l))
-      prepareStrandStep(model, blk.config, blk.strand[l], blk.flags[l], blk.h, blk.state,
+      prepareStrandStep(model, blk.config, blk.plan, blk.strand[l], blk.flags[l], blk.h, blk.state,
                         blk.scratch);
     for (int i = 0; i < blk.n; ++i)
       setLaneValue(&a.factor[i], l, blk.stiffness_on[l] ? blk.scratch->velocity_factor[i] : 1.0);
