@@ -120,13 +120,18 @@ struct CohesionNodeGrid {
   /// corner then adds to one vector, not to four arrays (copied to wet_volume, qx, qy, qz after).
   std::vector<double> wet_splat;
   /// The second half of the particles' copies of scalar and wet_splat (the splat's halves,
-  /// summed into the arrays above).
+  /// summed into the arrays above); with grid_node_volumes scalar_b then holds each node's
+  /// inverse density.
   std::vector<double> scalar_b, wet_splat_b;
   /// Single-precision copies of the five node arrays above, read by the float gathers.
   std::vector<float> scalar_f, wet_volume_f, qx_f, qy_f, qz_f;
   // Per particle, as a structure of arrays (the own-strand sums run over them in SIMD lanes):
-  std::vector<double> volume;     ///< V = m / rho from the lattice density.
-  std::vector<double> wet_share;  ///< V sigma (the gathered strands' particles only).
+  /// V = m / rho from the lattice density (with grid_node_volumes: the gathered strands'
+  /// particles only).
+  std::vector<double> volume;
+  /// V sigma (the gathered strands' particles only; with grid_node_volumes sigma, the corners
+  /// carrying m / rho of their nodes).
+  std::vector<double> wet_share;
   // The gathered strands' particles only (the passes over every particle compute these from
   // the positions):
   std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
@@ -216,7 +221,9 @@ struct HairState {
   std::vector<double> stiffness_factor, stiffness_factor_saturation;
   std::vector<StiffnessFactorKey> stiffness_factor_key;
   Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
-  std::vector<double> density;  ///< per particle: SPH density scratch (cohesion), kg/m^3-ish.
+  /// Per particle: SPH density scratch (cohesion), kg/m^3-ish; with the lattice's node volumes
+  /// (CohesionConfig::grid_node_volumes) written for the gathered particles only.
+  std::vector<double> density;
   Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
   /// Per guide particle (followers.h; empty without followers), head frame: its position and its
   /// exaggerated rest position, m.
