@@ -220,11 +220,11 @@ struct HairState {
   /// reused while all of them are the same (an exp and a log per particle and step otherwise).
   std::vector<double> stiffness_factor, stiffness_factor_saturation;
   std::vector<StiffnessFactorKey> stiffness_factor_key;
-  Vec3List external_force;      ///< per particle: cross-strand forces of the baselines, N.
+  Vec3List external_force;  ///< per particle: cross-strand forces of the baselines, N.
   /// Per particle: SPH density scratch (cohesion), kg/m^3-ish; with the lattice's node volumes
   /// (CohesionConfig::grid_node_volumes) written for the gathered particles only.
   std::vector<double> density;
-  Vec3List normal_scratch;      ///< per particle: Akinci surface normals (kim baseline).
+  Vec3List normal_scratch;  ///< per particle: Akinci surface normals (kim baseline).
   /// Per guide particle (followers.h; empty without followers), head frame: its position and its
   /// exaggerated rest position, m.
   Vec3List guide_position_head, guide_rest_head;
