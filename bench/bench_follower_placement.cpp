@@ -47,31 +47,30 @@ struct Options {
 };
 
 bool parse(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (i + 1 >= argc) return false;
-    const std::string value = argv[++i];
-    const int v = std::atoi(value.c_str());
-    if (a == "--stage")
-      o->stage = value;
-    else if (a == "--gather-at")
-      o->gather_at = value;
-    else if (a == "--node-volumes")
-      o->node_volumes = value;
-    else if (a == "--strands")
-      o->strands = v;
-    else if (a == "--follow-ratio")
-      o->follow_ratio = v;
-    else if (a == "--warm-frames")
-      o->warm_frames = v;
-    else if (a == "--runs")
-      o->runs = v;
-    else if (a == "--threads")
-      o->threads = v;
-    else
-      return false;
-  }
-  return o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
+  const bool read =
+      bench::readOptionPairs(argc, argv, [o](const std::string& a, const std::string& value) {
+        const int v = std::atoi(value.c_str());
+        if (a == "--stage")
+          o->stage = value;
+        else if (a == "--gather-at")
+          o->gather_at = value;
+        else if (a == "--node-volumes")
+          o->node_volumes = value;
+        else if (a == "--strands")
+          o->strands = v;
+        else if (a == "--follow-ratio")
+          o->follow_ratio = v;
+        else if (a == "--warm-frames")
+          o->warm_frames = v;
+        else if (a == "--runs")
+          o->runs = v;
+        else if (a == "--threads")
+          o->threads = v;
+        else
+          return false;
+        return true;
+      });
+  return read && o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
          o->threads > 0 && (o->stage == "placement" || o->stage == "display") &&
          (o->gather_at == "all" || o->gather_at == "guides") &&
          (o->node_volumes == "true" || o->node_volumes == "false");
@@ -89,35 +88,20 @@ int main(int argc, char** argv) {
                  "[--node-volumes true|false]\n");
     return 2;
   }
-  io::SceneConfig scene = io::builtinScene();
-  scene.groom.strands = o.strands;
-  scene.groom.follow_ratio = o.follow_ratio;
-  scene.solver.integrator.threads = o.threads;
-  scene.solver.cohesion.gather_at = o.gather_at;
-  scene.solver.cohesion.grid_node_volumes = o.node_volumes == "true";
-  HairModel model;
-  std::string why;
-  if (!io::buildSceneModel(scene, &model, &why)) {
-    std::fprintf(stderr, "bench_follower_placement: %s\n", why.c_str());
-    return 1;
-  }
-  Obstacles obstacles;
-  AnalyticObstacle sphere;  // behind the head, as bench_followers
-  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
-  sphere.radius_m = 0.05;
-  obstacles.analytic.push_back(sphere);
-  const HeadMotionConfig& motion = scene.motion;
-  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
-  SaturationCommand wet;
-  wet.root_value = scene.saturation.root;
-  wet.tip_value = scene.saturation.tip;
-  applySaturation(model, wet, headPose(motion, 0.0), &state);
-  const double frame = 1.0 / 60.0;
-  for (int f = 0; f < o.warm_frames; ++f) {
-    const StepInputs in{headPose(motion, f * frame), headPose(motion, (f + 1) * frame), &obstacles};
-    step(model, scene.solver, in, frame, &state, nullptr);
-  }
-  const Pose pose = headPose(motion, o.warm_frames * frame);
+  io::SceneConfig config = io::builtinScene();
+  config.groom.strands = o.strands;
+  config.groom.follow_ratio = o.follow_ratio;
+  config.solver.integrator.threads = o.threads;
+  config.solver.cohesion.gather_at = o.gather_at;
+  config.solver.cohesion.grid_node_volumes = o.node_volumes == "true";
+  bench::NoddingRun run;
+  if (!run.build(config, "bench_follower_placement")) return 1;
+  for (int f = 0; f < o.warm_frames; ++f) run.stepFrame(f);
+  const io::SceneConfig& scene = run.scene;
+  const HairModel& model = run.model;
+  HairState& state = run.state;
+  const double frame = scene.run.frame_s;
+  const Pose pose = headPose(scene.motion, o.warm_frames * frame);
   const bool display = o.stage == "display";
   const int timed = display
                         ? model.particleCount()
@@ -129,7 +113,7 @@ int main(int argc, char** argv) {
     if (display)
       computeDisplayCohesion(model, scene.solver.cohesion, &state, o.threads);
     else
-      updateFollowers(model, scene.solver, pose, &obstacles, frame, o.threads, &state);
+      updateFollowers(model, scene.solver, pose, &run.obstacles, frame, o.threads, &state);
     ns.push_back((bench::now() - t0) / timed * 1e9);
   }
   std::sort(ns.begin(), ns.end());

@@ -51,10 +51,7 @@ io::SceneConfig benchScene(const Options& o, int k) {
   scene.solver.integrator.threads = o.threads;
   if (o.dry) scene.saturation.root = scene.saturation.tip = 0.0;
   scene.solver.sag_free = o.sag_free;
-  AnalyticObstacle sphere;  // behind the head, where the nodding hair swings into it
-  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
-  sphere.radius_m = 0.05;
-  scene.obstacles.push_back(sphere);
+  scene.obstacles.push_back(bench::sphereBehindTheHead());
   return scene;
 }
 

@@ -15,13 +15,11 @@
 #include <cstdlib>
 #include <string>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/cohesion.h"
-#include "wet_curly_hair/core/head_motion.h"
-#include "wet_curly_hair/core/saturation.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/core/state.h"
 #include "wet_curly_hair/io/scene.h"
-#include "wet_curly_hair/io/scene_setup.h"
 
 using namespace wet_curly_hair;
 
@@ -36,25 +34,24 @@ struct Options {
 };
 
 bool parse(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (i + 1 >= argc) return false;
-    const std::string value = argv[++i];
-    const int v = std::atoi(value.c_str());
-    if (a == "--gather-at")
-      o->gather_at = value;
-    else if (a == "--strands")
-      o->strands = v;
-    else if (a == "--follow-ratio")
-      o->follow_ratio = v;
-    else if (a == "--frames")
-      o->frames = v;
-    else if (a == "--threads")
-      o->threads = v;
-    else
-      return false;
-  }
-  return o->strands > 0 && o->follow_ratio > 0 && o->frames >= 2 && o->threads > 0 &&
+  const bool read =
+      bench::readOptionPairs(argc, argv, [o](const std::string& a, const std::string& value) {
+        const int v = std::atoi(value.c_str());
+        if (a == "--gather-at")
+          o->gather_at = value;
+        else if (a == "--strands")
+          o->strands = v;
+        else if (a == "--follow-ratio")
+          o->follow_ratio = v;
+        else if (a == "--frames")
+          o->frames = v;
+        else if (a == "--threads")
+          o->threads = v;
+        else
+          return false;
+        return true;
+      });
+  return read && o->strands > 0 && o->follow_ratio > 0 && o->frames >= 2 && o->threads > 0 &&
          (o->gather_at == "all" || o->gather_at == "guides");
 }
 
@@ -81,36 +78,22 @@ int main(int argc, char** argv) {
                  "[--frames F >= 2] [--gather-at all|guides] [--threads T > 0]\n");
     return 2;
   }
-  io::SceneConfig scene = io::builtinScene();
-  scene.groom.strands = o.strands;
-  scene.groom.follow_ratio = o.follow_ratio;
-  scene.solver.integrator.threads = o.threads;
-  scene.solver.integrator.substep_s = 1.0 / 360.0;
-  HairModel model;
-  std::string why;
-  if (!io::buildSceneModel(scene, &model, &why)) {
-    std::fprintf(stderr, "bench_lattice_error: %s\n", why.c_str());
-    return 1;
-  }
-  Obstacles obstacles;
-  AnalyticObstacle sphere;  // behind the head, as bench_followers
-  sphere.center_m = Vec3(-0.16, 0.0, -0.05);
-  sphere.radius_m = 0.05;
-  obstacles.analytic.push_back(sphere);
-  const HeadMotionConfig& motion = scene.motion;
-  HairState state = makeState(model, headPose(motion, 0.0), headTwist(motion, 0.0));
-  SaturationCommand wet;
-  wet.root_value = scene.saturation.root;
-  wet.tip_value = scene.saturation.tip;
-  applySaturation(model, wet, headPose(motion, 0.0), &state);
+  io::SceneConfig config = io::builtinScene();
+  config.groom.strands = o.strands;
+  config.groom.follow_ratio = o.follow_ratio;
+  config.solver.integrator.threads = o.threads;
+  config.solver.integrator.substep_s = 1.0 / 360.0;
+  bench::NoddingRun run;
+  if (!run.build(config, "bench_lattice_error")) return 1;
+  const io::SceneConfig& scene = run.scene;
+  const HairModel& model = run.model;
+  const HairState& state = run.state;
   const int simulated_end = model.strandBegin(model.simulatedStrandCount());
-  const double frame = scene.run.frame_s;
   ErrorSums volumes[2];  // particle, node
   double offset_squared = 0.0;
   long wet_particles = 0;
   for (int f = 0; f < o.frames; ++f) {
-    const StepInputs in{headPose(motion, f * frame), headPose(motion, (f + 1) * frame), &obstacles};
-    step(model, scene.solver, in, frame, &state, nullptr);
+    run.stepFrame(f);
     if (f < o.frames / 2 || f % 5 != 0) continue;
     CohesionConfig c = scene.solver.cohesion;
     c.refresh_period_s = 0.0;
