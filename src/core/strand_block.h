@@ -440,6 +440,7 @@ uint64_t adhesionForces(Block<S>& blk) {
   const AdhesionConfig& ad = blk.config.adhesion;
   const S scale =
       splat<S>(ad.peak_acceleration_m_s2 / adhesionKernelPeak(ad.radius_m, ad.literal_polynomial));
+  const double norm = adhesionNorm(ad.radius_m);
   const LaneMask<S> on = maskFromBools<LaneMask<S>>(blk.adhesion_on);
   uint64_t evaluated = 0;
   for (int i = 1; i < blk.n; ++i) {
@@ -448,7 +449,7 @@ uint64_t adhesionForces(Block<S>& blk) {
     if (!anyLane(needed)) continue;
     V3<S> normal;
     const S dist = obstacleDistance(blk, i, needed, &normal);
-    const S ak = adhesionKernel(dist, ad.radius_m, ad.literal_polynomial);
+    const S ak = adhesionKernel(dist, ad.radius_m, norm, ad.literal_polynomial);
     const LaneMask<S> pulled = needed && (ak > splat<S>(0.0));
     a.f[i] -= select(pulled, (a.sigma[i] * a.m[i] * scale * ak) * normal, zero3<S>());
     for (int l = 0; l < Block<S>::kWidth; ++l) {
@@ -927,6 +928,11 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
   laps.skip();  // the substeps charged their own stages
   scatterBlock(blk);
   laps.lap(kStageLanes, 0);
+  if (k_end == nsub) {  // the step's last substep: the post-step check, the strands in cache
+    for (int l = 0; l < active; ++l)
+      checkStrandAfterStep(model, config, inputs, blk.strand[l], state, stats);
+    laps.lap(kStageRepair, uint64_t(blk.n) * active);
+  }
   double largest = laneValue(blk.max_strain, 0);
   for (int l = 1; l < active; ++l) largest = std::max(largest, laneValue(blk.max_strain, l));
   return largest;

@@ -61,8 +61,11 @@ struct StepStats {
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
   /// Extra collision + strain-limit rounds run (strand-substeps x rounds; CollisionConfig).
   uint64_t constraint_rounds = 0;
-  uint64_t repaired_strands = 0;  ///< strands restored to their last good state.
-  uint64_t head_jumps = 0;        ///< 1 when this step's head motion was taken as a jump.
+  /// Strands restored to their last good state after the step (the post-step check): those with
+  /// a non-finite position or velocity plus those with an edge beyond 3x the strain limit, and
+  /// the non-finite scalars the first held.
+  uint64_t repaired_strands = 0, nonfinite_repairs = 0, strain_repairs = 0, nonfinite_values = 0;
+  uint64_t head_jumps = 0;  ///< 1 when this step's head motion was taken as a jump.
   // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.
   uint64_t curl_particle_substeps = 0;      ///< curl exaggeration (wet strands only).
   uint64_t adhesion_particle_substeps = 0;  ///< adhesion evaluated (wet, within obstacle reach).
