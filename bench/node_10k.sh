@@ -4,7 +4,7 @@
 #
 #   bench/node_10k.sh [--seconds T] [--strands N] [--follow-ratio K] [--cohesion ours|off]
 #                     [--gather-at all|guides] [--refresh S] [--status-only | --sink] [--obstacle SPEC]
-#                     [--substep S] [--node-volumes true|false] [--out DIR]
+#                     [--substep S] [--node-volumes true|false] [--nodelet] [--out DIR]
 #
 # Starts a private roscore, head_motion_publisher (the built-in nod, 120 Hz) and the node on the
 # built-in scene (wet toward the tips) with N output strands of which N / K are guides, a sphere
@@ -25,10 +25,13 @@
 # --sink: wet_curly_hair_strands_sink subscribes to ~strands instead of the probe, taking each
 # message as raw bytes, so the node serializes and sends every frame as to any subscriber while
 # the receiving costs this machine as little as it can; the probe counts what the sink took.
+# --nodelet: the node runs as wet_curly_hair/WetCurlyHairNodelet in a nodelet manager, and with
+# --sink the sink as wet_curly_hair/StrandsSinkNodelet in the same manager: the consumer takes
+# each frame as the node's own message, neither serialized nor sent (docs/ros.md, "Nodelets").
 set -eu
 source "$(dirname "${BASH_SOURCE[0]}")/../scripts/setup_common.sh"
 seconds=20 strands=10000 ratio=10 cohesion=ours gather_at=all refresh=0 status_only=0 sink=0
-out=node_10k_out
+nodelet=0 out=node_10k_out
 substep=0.0005 node_volumes=false
 obstacle="sphere:x=-0.16,y=0.0,z=-0.05,r=0.05"
 while [ $# -gt 0 ]; do
@@ -44,6 +47,7 @@ while [ $# -gt 0 ]; do
     --obstacle) obstacle=$2; shift 2 ;;
     --substep) substep=$2; shift 2 ;;
     --node-volumes) node_volumes=$2; shift 2 ;;
+    --nodelet) nodelet=1; shift ;;
     --out) out=$2; shift 2 ;;
     *) echo "node_10k.sh: unknown option $1" >&2; exit 2 ;;
   esac
@@ -72,26 +76,40 @@ rosparam set /wet_curly_hair/obstacles "[\"$obstacle\"]"
 "$(wch_bin head_motion_publisher)" __name:=head_motion _motion:=nod _rate:=120 \
   > "$out/head.log" 2>&1 &
 pids+=($!)
-"$(wch_bin wet_curly_hair_node)" __name:=wet_curly_hair _publish_rate:=60 \
-  _groom/strands:="$strands" _groom/follow_ratio:="$ratio" \
-  _solver/cohesion/mode:="$cohesion" _solver/cohesion/gather_at:="$gather_at" \
-  _solver/cohesion/refresh_period_s:="$refresh" _solver/integrator/substep_s:="$substep" \
-  _solver/cohesion/grid_node_volumes:="$node_volumes" \
-  > "$out/node.log" 2>&1 &
-pids+=($!)
-if [ "$sink" = 1 ]; then
-  "$(wch_bin wet_curly_hair_strands_sink)" __name:=strands_sink > "$out/sink.log" 2>&1 &
+node_args=(__name:=wet_curly_hair _publish_rate:=60
+  _groom/strands:="$strands" _groom/follow_ratio:="$ratio"
+  _solver/cohesion/mode:="$cohesion" _solver/cohesion/gather_at:="$gather_at"
+  _solver/cohesion/refresh_period_s:="$refresh" _solver/integrator/substep_s:="$substep"
+  _solver/cohesion/grid_node_volumes:="$node_volumes")
+if [ "$nodelet" = 1 ]; then
+  nodelet_bin=/usr/lib/nodelet/nodelet
+  "$nodelet_bin" manager __name:=wet_curly_hair_manager > "$out/manager.log" 2>&1 &
   pids+=($!)
-  status_only=1  # the probe itself takes no strands
+  "$nodelet_bin" load wet_curly_hair/WetCurlyHairNodelet wet_curly_hair_manager "${node_args[@]}" \
+    > "$out/node.log" 2>&1 &
+  pids+=($!)
+  if [ "$sink" = 1 ]; then
+    "$nodelet_bin" load wet_curly_hair/StrandsSinkNodelet wet_curly_hair_manager __name:=strands_sink \
+      > "$out/sink.log" 2>&1 &
+    pids+=($!)
+  fi
+else
+  "$(wch_bin wet_curly_hair_node)" "${node_args[@]}" > "$out/node.log" 2>&1 &
+  pids+=($!)
+  if [ "$sink" = 1 ]; then
+    "$(wch_bin wet_curly_hair_strands_sink)" __name:=strands_sink > "$out/sink.log" 2>&1 &
+    pids+=($!)
+  fi
 fi
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" "$sink" <<'PY'
+if [ "$sink" = 1 ]; then status_only=1; fi  # the probe itself takes no strands
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" "$sink" "$nodelet" <<'PY'
 import json, sys, time
 import rospy
 from std_msgs.msg import UInt64
 from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
 refresh, status_only, substep = float(sys.argv[7]), sys.argv[8] == "1", float(sys.argv[9])
-node_volumes, sink = sys.argv[10] == "true", sys.argv[11] == "1"
+node_volumes, sink, in_manager = sys.argv[10] == "true", sys.argv[11] == "1", sys.argv[12] == "1"
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -132,7 +150,8 @@ r = {
     "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
     "refresh_period_s": refresh, "substep_s": substep, "node_volumes": node_volumes,
     "strands_subscribed": sink or not status_only,
-    "consumer": "sink" if sink else ("none" if status_only else "probe"),
+    "consumer": ("sink nodelet" if in_manager else "sink") if sink else ("none" if status_only else "probe"),
+    "node": "nodelet" if in_manager else "process",
     "particles": last.particles, "publish_rate_hz": 1.0 / last.frame_s,
     "window_wall_s": wall,
     "message_bytes": max(window["bytes"]) if window["bytes"] else 0,

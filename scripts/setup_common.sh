@@ -11,6 +11,7 @@ WCH_PACKAGES=(
   build-essential cmake pkg-config git
   ros-core-dev python3-rostest rosbash python3-rospy tf2-tools
   librosbag-dev libtopic-tools-dev libstd-srvs-dev python3-rosbag python3-std-srvs
+  libnodeletlib-dev libnodelet-dev libnodeletlib-tools
   python3-geometry-msgs
   libtf2-ros-dev libtf2-eigen-dev libvisualization-msgs-dev
   liboctomap-dev libdynamicedt3d-dev

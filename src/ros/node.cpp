@@ -3,6 +3,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <boost/make_shared.hpp>
 #include <chrono>
 #include <cmath>
 #include <future>
@@ -432,12 +433,31 @@ void WetCurlyHairNode::publishStrandsLocked() {
   header.stamp.fromNSec(static_cast<uint64_t>(sim_ns_));
   header.frame_id = config_.world_frame;
   auto t0 = Clock::now();
+  const boost::shared_ptr<Strands> frame = freeStrandsFrame();
   stateToStrandsMsg(model_, state_, scene_.solver.cohesion.mode != "off", header, step_,
-                    reset_count_, head_pose_, &strands_msg_);
+                    reset_count_, head_pose_, frame.get());
   tick_convert_s_ += wallSince(t0);
   t0 = Clock::now();
-  strands_pub_.publish(strands_msg_);
+  strands_pub_.publish(boost::shared_ptr<const Strands>(frame));
   tick_publish_s_ += wallSince(t0);
+}
+
+boost::shared_ptr<Strands> WetCurlyHairNode::freeStrandsFrame() {
+  // Held by nobody else (roscpp releases a frame once every subscriber queue and socket is done
+  // with it): filled in place, its arrays already the right size. A subscriber may keep frames
+  // (its queue, or a pointer of its own): up to kFrames are kept here, and when every one is
+  // held a new frame replaces one in turn, the old one freed by its last holder.
+  constexpr size_t kFrames = 4;
+  for (const boost::shared_ptr<Strands>& f : strands_frames_)
+    if (f.use_count() == 1) return f;
+  auto fresh = boost::make_shared<Strands>();
+  if (strands_frames_.size() < kFrames) {
+    strands_frames_.push_back(fresh);
+  } else {
+    strands_frames_[next_strands_frame_] = fresh;
+    next_strands_frame_ = (next_strands_frame_ + 1) % kFrames;
+  }
+  return fresh;
 }
 
 void WetCurlyHairNode::appendSceneMarkersLocked(const std_msgs::Header& header) {

@@ -20,7 +20,10 @@ for f in setup.bash _setup_util.py .catkin lib/libwet_curly_hair_core.so lib/lib
     include/wet_curly_hair/Strands.h include/wet_curly_hair/SetSaturation.h \
     share/wet_curly_hair/package.xml share/wet_curly_hair/launch_notes/wet_curly_hair.launch \
     share/wet_curly_hair/launch_notes/demo.launch share/wet_curly_hair/launch_notes/two_heads.launch \
-    share/wet_curly_hair/launch_notes/head.launch \
+    share/wet_curly_hair/launch_notes/head.launch share/wet_curly_hair/launch_notes/nodelet.launch \
+    lib/libwet_curly_hair_nodelets.so share/wet_curly_hair/nodelet_plugins.xml \
+    share/ament_index/resource_index/nodelet__pluginlib__plugin/wet_curly_hair \
+    share/ament_index/resource_index/packages/wet_curly_hair \
     share/wet_curly_hair/config/default_node.yaml \
     share/wet_curly_hair/config/scenes/default.yaml share/wet_curly_hair/msg/Strands.msg \
     share/wet_curly_hair/srv/SetSaturation.srv share/wet_curly_hair/cmake/wet_curly_hairConfig.cmake \
@@ -41,6 +44,7 @@ set -u
 export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
 export ROS_HOME="$work/ros_home" ROS_LOG_DIR="$work/ros_home/log"
 echo "package: \$(rospack find wet_curly_hair)"
+echo "ament: \${AMENT_PREFIX_PATH:-}"
 pids=()
 stop() {  # SIGINT first (nodes clean up), then escalate
   for pid in "\${pids[@]}"; do kill -INT "\$pid" 2>/dev/null; done
@@ -66,6 +70,8 @@ SH
 env -i HOME="$HOME" PATH=/usr/bin:/bin bash "$work/launch.sh" > "$work/result.txt" 2>&1
 check "rospack finds the installed package" \
   "grep -qx 'package: $prefix/share/wet_curly_hair' $work/result.txt"
+check "the prefix's setup.bash puts it on AMENT_PREFIX_PATH (where pluginlib finds the nodelets)" \
+  "grep -qE '^ament: (.*:)?$prefix(:.*)?\$' $work/result.txt"
 check "the node publishes strands (rostopic echo -n 1 within 60 s)" \
   "grep -qx 'echo: 0' $work/result.txt && grep -q '\[0, ' $work/strands.txt"
 check "the running node is the installed executable" \

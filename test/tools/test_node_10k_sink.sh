@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # bench/node_10k.sh end to end on a small groom: with --sink, wet_curly_hair_strands_sink takes
 # the node's ~strands as raw bytes and the probe counts what it took (the size of every frame);
+# with --sink --nodelet the node and the sink run as nodelets of one manager;
 # with --status-only nothing takes them, and the node builds none. The timings themselves are the
 # bench's, not checked here.
 set -u
@@ -21,6 +22,14 @@ json=$out/sink/node_10k.json
 # 60 strands x 32: positions, saturation and display positions as float32, 23,040 bytes.
 check "the sink took the frames" \
   "[ \"\$(field $json consumer)\" = sink ] && /usr/bin/python3 -c \"import json,sys; d=json.load(open('$json')); sys.exit(0 if d['messages_received_per_s'] > 10 and d['message_bytes'] > 23040 else 1)\""
+# --nodelet: the node and the sink as nodelets of one manager; the sink takes the frames in process.
+WCH_BUILD=$build bench/node_10k.sh --strands 60 --follow-ratio 4 --seconds 2 --sink --nodelet \
+  --out "$out/nodelet" > "$out/nodelet.txt" 2>&1
+rc=$?
+json=$out/nodelet/node_10k.json
+check "node_10k.sh --sink --nodelet runs (got $rc)" "[ $rc -eq 0 ]"
+check "the sink nodelet took the node nodelet's frames, of the same size as over TCPROS" \
+  "[ \"\$(field $json consumer)\" = 'sink nodelet' ] && [ \"\$(field $json node)\" = nodelet ] && [ \"\$(field $json message_bytes)\" = \"\$(field $out/sink/node_10k.json message_bytes)\" ] && /usr/bin/python3 -c \"import json,sys; sys.exit(0 if json.load(open('$json'))['messages_received_per_s'] > 10 else 1)\""
 WCH_BUILD=$build bench/node_10k.sh --strands 60 --follow-ratio 4 --seconds 2 --status-only \
   --out "$out/none" > "$out/none.txt" 2>&1
 rc=$?

@@ -22,6 +22,7 @@
 #include <set>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "wet_curly_hair/GetParameters.h"
 #include "wet_curly_hair/LoadObstacleMap.h"
@@ -176,7 +177,12 @@ class WetCurlyHairNode {
   Vec3List previous_position_;
   long long crossings_ = 0;
   FieldInfo field_;
-  Strands strands_msg_;  ///< reused storage
+  /// The ~strands frames, published as shared pointers: a subscriber in the node's process (a
+  /// nodelet in its manager) takes the frame itself, neither serialized nor copied. A frame is
+  /// filled again only once nothing else holds it (freeStrandsFrame).
+  std::vector<boost::shared_ptr<Strands>> strands_frames_;
+  size_t next_strands_frame_ = 0;  ///< the slot replaced when every frame is held
+  boost::shared_ptr<Strands> freeStrandsFrame();
   visualization_msgs::MarkerArray markers_msg_;
   std::set<std::pair<std::string, int32_t>> published_markers_;  ///< (ns, id) sent last time
   visualization_msgs::Marker field_marker_;        ///< the field's surface, made once per field
