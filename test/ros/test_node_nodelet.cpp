@@ -7,6 +7,7 @@
 #include <ros/serialization.h>
 #include <std_msgs/UInt64.h>
 
+#include <algorithm>
 #include <string>
 
 #include "ros_test_helpers.h"
@@ -47,6 +48,24 @@ TEST(NodeNodelet, RunsInAManagerAndItsFramesReachTheSinkAndOutsideSubscribers) {
     ros::WallDuration(0.05).sleep();
   EXPECT_GE(received.count(), sink0 + 10);
   EXPECT_GE(strands.count(), outside0 + 10);
+}
+
+TEST(NodeNodelet, FramesAConsumerKeepsNeverChangeUnderIt) {
+  // The sink keeps its last 8 frames (nodelet.test), twice what the node keeps to fill again:
+  // after 2 s of frames, every kept frame still holds its step and positions.
+  ros::NodeHandle nh;
+  Latest<std_msgs::UInt64> changed(nh, "/strands_sink/changed");
+  std_msgs::UInt64 got;
+  ASSERT_TRUE(changed.waitFor(
+      60.0, [](const std_msgs::UInt64&) { return true; }, &got))
+      << "no ~changed from the sink";
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(2.0);
+  uint64_t worst = got.data;
+  while (ros::WallTime::now() < end) {
+    if (changed.next(1.0, &got)) worst = std::max<uint64_t>(worst, got.data);
+  }
+  EXPECT_GE(changed.count(), 20u) << "fewer frames than 2 s at 30 Hz";
+  EXPECT_EQ(worst, 0u) << "the node wrote into a frame the sink still held";
 }
 
 }  // namespace
