@@ -19,14 +19,16 @@ namespace wet_curly_hair {
 
 /// wet_curly_hair/WetCurlyHairNodelet: WetCurlyHairNode with the nodelet's handles, the same
 /// parameters, topics and services as wet_curly_hair_node. A parameter the node refuses is
-/// reported as for the node and the nodelet then simulates nothing (a manager cannot exit for it).
+/// reported as the node reports it, and the load fails: the manager unloads the nodelet (the
+/// `nodelet load` process exits) and runs on with its other nodelets.
 class WetCurlyHairNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
     try {
       node_ = std::make_unique<WetCurlyHairNode>(getNodeHandle(), getPrivateNodeHandle());
     } catch (const std::exception& e) {
-      NODELET_FATAL("not starting: %s", e.what());
+      NODELET_FATAL("not starting: %s", e.what());  // the manager's own message has no reason
+      throw;
     }
   }
   std::unique_ptr<WetCurlyHairNode> node_;

@@ -3,6 +3,7 @@
 // takes its frames (~received: each frame's serialized size), and a subscriber outside the
 // manager receives the same frames, of that size.
 #include <gtest/gtest.h>
+#include <nodelet/NodeletList.h>
 #include <ros/ros.h>
 #include <ros/serialization.h>
 #include <std_msgs/UInt64.h>
@@ -48,6 +49,30 @@ TEST(NodeNodelet, RunsInAManagerAndItsFramesReachTheSinkAndOutsideSubscribers) {
     ros::WallDuration(0.05).sleep();
   EXPECT_GE(received.count(), sink0 + 10);
   EXPECT_GE(strands.count(), outside0 + 10);
+}
+
+TEST(NodeNodelet, ANodeletThatRefusesItsParametersLeavesTheManagerRunning) {
+  // nodelet.test loads refused_hair (groom/strands -5) into the same manager: its load fails
+  // (the manager lists it no more), it advertises nothing, and the first node keeps publishing.
+  ros::NodeHandle nh;
+  Latest<Status> status(nh, "/wet_curly_hair/status");
+  ASSERT_TRUE(status.next(60.0, nullptr)) << "no status from the node nodelet";
+  ros::WallDuration(3.0).sleep();  // refused_hair's load has run (the loader starts at once)
+  nodelet::NodeletList list;
+  ASSERT_TRUE(ros::service::call("/wet_curly_hair_manager/list", list));
+  EXPECT_NE(
+      std::find(list.response.nodelets.begin(), list.response.nodelets.end(), "/wet_curly_hair"),
+      list.response.nodelets.end());
+  EXPECT_EQ(
+      std::find(list.response.nodelets.begin(), list.response.nodelets.end(), "/refused_hair"),
+      list.response.nodelets.end())
+      << "the refused nodelet stayed loaded";
+  ros::master::V_TopicInfo topics;
+  ASSERT_TRUE(ros::master::getTopics(topics));
+  for (const ros::master::TopicInfo& t : topics)
+    EXPECT_NE(t.name.rfind("/refused_hair/", 0), 0u) << "the refused nodelet advertises " << t.name;
+  Status st;
+  EXPECT_TRUE(status.next(10.0, &st)) << "the node stopped when the other nodelet was refused";
 }
 
 TEST(NodeNodelet, FramesAConsumerKeepsNeverChangeUnderIt) {
