@@ -91,6 +91,8 @@ class WetCurlyHairNode {
   void maybeRebuildFieldLocked();
   Eigen::AlignedBox3d reachBoxLocked() const;
   void publishStrandsLocked();
+  /// A frame of strands_frames_ that nothing else holds, or a new one (kept up to 4).
+  boost::shared_ptr<Strands> freeStrandsFrame();
   /// Head, obstacle and obstacle-field markers beside the hair in markers_msg_ (docs/ros.md).
   void appendSceneMarkersLocked(const std_msgs::Header& header);
   void fillStatusLocked(Status* status);
@@ -182,7 +184,6 @@ class WetCurlyHairNode {
   /// filled again only once nothing else holds it (freeStrandsFrame).
   std::vector<boost::shared_ptr<Strands>> strands_frames_;
   size_t next_strands_frame_ = 0;  ///< the slot replaced when every frame is held
-  boost::shared_ptr<Strands> freeStrandsFrame();
   visualization_msgs::MarkerArray markers_msg_;
   std::set<std::pair<std::string, int32_t>> published_markers_;  ///< (ns, id) sent last time
   visualization_msgs::Marker field_marker_;        ///< the field's surface, made once per field
