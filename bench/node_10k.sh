@@ -82,14 +82,13 @@ node_args=(__name:=wet_curly_hair _publish_rate:=60
   _solver/cohesion/refresh_period_s:="$refresh" _solver/integrator/substep_s:="$substep"
   _solver/cohesion/grid_node_volumes:="$node_volumes")
 if [ "$nodelet" = 1 ]; then
-  nodelet_bin=/usr/lib/nodelet/nodelet
-  "$nodelet_bin" manager __name:=wet_curly_hair_manager > "$out/manager.log" 2>&1 &
+  rosrun nodelet nodelet manager __name:=wet_curly_hair_manager > "$out/manager.log" 2>&1 &
   pids+=($!)
-  "$nodelet_bin" load wet_curly_hair/WetCurlyHairNodelet wet_curly_hair_manager "${node_args[@]}" \
+  rosrun nodelet nodelet load wet_curly_hair/WetCurlyHairNodelet wet_curly_hair_manager "${node_args[@]}" \
     > "$out/node.log" 2>&1 &
   pids+=($!)
   if [ "$sink" = 1 ]; then
-    "$nodelet_bin" load wet_curly_hair/StrandsSinkNodelet wet_curly_hair_manager __name:=strands_sink \
+    rosrun nodelet nodelet load wet_curly_hair/StrandsSinkNodelet wet_curly_hair_manager __name:=strands_sink \
       > "$out/sink.log" 2>&1 &
     pids+=($!)
   fi

@@ -37,7 +37,7 @@ class WetCurlyHairNodelet : public nodelet::Nodelet {
 /// wet_curly_hair/StrandsSinkNodelet: wet_curly_hair_strands_sink in a manager. It takes each
 /// frame of ~topic (default wet_curly_hair/strands, relative) as the publisher's own message and
 /// publishes on ~received (std_msgs/UInt64) the size that frame has serialized, without
-/// serializing it, so that bench/node_10k.sh --sink nodelet measures a consumer in the node's
+/// serializing it, so that bench/node_10k.sh --sink --nodelet measures a consumer in the node's
 /// process as --sink measures one in another. ~keep_frames k (default 0, at most 64): it also keeps
 /// the last k frames, as a consumer comparing successive frames would, and publishes on ~changed
 /// (std_msgs/UInt64) how many kept frames no longer hold what they held on arrival (their step
