@@ -265,8 +265,10 @@ void detail::checkStrandAfterStep(const HairModel& model, const SolverConfig& co
   const int begin = model.strandBegin(s);
   const int n = model.strandSize(s);
   if (finite && strain_ok) {
-    std::memcpy(&state->last_good_position[begin], &state->position[begin], n * sizeof(Vec3));
-    std::memcpy(&state->last_good_velocity[begin], &state->velocity[begin], n * sizeof(Vec3));
+    std::memcpy(state->last_good_position[begin].data(), state->position[begin].data(),
+                n * sizeof(Vec3));
+    std::memcpy(state->last_good_velocity[begin].data(), state->velocity[begin].data(),
+                n * sizeof(Vec3));
     return;
   }
   repairStrand(model, inputs, s, state);

@@ -23,6 +23,7 @@
 
 #include "solver_internal.h"
 #include "wet_curly_hair/core/bend_gradient.h"
+#include "wet_curly_hair/core/block_tridiagonal.h"
 #include "wet_curly_hair/core/frames.h"
 #include "wet_curly_hair/core/head_collider.h"
 #include "wet_curly_hair/core/lane_math.h"
@@ -525,27 +526,14 @@ void gatherExternalBlocks(Block<S>& blk) {
   }
 }
 
-/// Block Thomas: forward elimination of (m_i + G_{i-1} + G_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1}
-/// = rhs_i root to tip, back substitution into a.v.
+/// The implicit system of the block's strands (solveSymmetricBlockTridiagonal): a.rhs
+/// eliminated, the solution u into a.v[1 .. n-1].
 template <typename S>
 void solveBlockTridiagonal(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
-  const int n = blk.n;
-  for (int i = 1; i < n; ++i) {
-    M33<S> pivot = a.block[i - 1];
-    for (int r = 0; r < 3; ++r) pivot.m[r][r] += a.m[i];
-    if (i < blk.edges) pivot = pivot + a.block[i];
-    if (blk.any_external_block) pivot = pivot + a.external_block[i];
-    if (i > 1) {
-      const M33<S> w = a.block[i - 1] * a.pivot_inverse[i - 1];
-      pivot = pivot - w * a.block[i - 1];
-      a.rhs[i] += w * a.rhs[i - 1];
-    }
-    a.pivot_inverse[i] = inverse(pivot);
-  }
-  a.v[n - 1] = a.pivot_inverse[n - 1] * a.rhs[n - 1];
-  for (int i = n - 2; i >= 1; --i)
-    a.v[i] = a.pivot_inverse[i] * (a.rhs[i] + a.block[i] * a.v[i + 1]);
+  solveSymmetricBlockTridiagonal(blk.n, a.m, a.block,
+                                 blk.any_external_block ? a.external_block : nullptr, a.rhs,
+                                 a.pivot_inverse, a.v);
 }
 
 /// The largest change of an edge over the corrector's lead, relative to the edge, at which the

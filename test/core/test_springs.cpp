@@ -84,6 +84,29 @@ TEST(Springs, StrainLimitPullsTheTipSideBackAlongTheEdge) {
   EXPECT_EQ(limitEdgeLength(a, b, 0.06), Vec3::Zero());
 }
 
+TEST(Springs, StrainLimitsSquaredLengthShortcutChangesNoBit) {
+  // The Eigen form lets edges through on their squared length; against the lane form, which
+  // always takes the square root, edges from far inside the limit to 1e-6 past it, densest
+  // within 1e-11 of it (the shortcut's margin is 1e-12), must move the same to the bit.
+  const double limit = 0.0084;
+  const Vec3 root(0.013, -0.27, 0.051);
+  int moved = 0, checked = 0;
+  for (int k = -400; k <= 400; ++k) {
+    const double rel = k < -200 ? 1e-3 * (k + 200) : k > 200 ? 5e-9 * (k - 200) : 5e-14 * k;
+    const Vec3 dir = Vec3(0.3 + 1e-3 * k, -0.8, 0.52).normalized();
+    const Vec3 tip = root + (limit * (1.0 + rel)) * dir;
+    const Vec3 shortcut = limitEdgeLength(root, tip, limit);
+    const Vec3 full = toEigen(limitEdgeLength(toV3(root), toV3(tip), limit));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(std::signbit(shortcut[c]), std::signbit(full[c])) << "rel " << rel;
+    EXPECT_EQ(shortcut, full) << "rel " << rel;
+    moved += full != Vec3::Zero();
+    ++checked;
+  }
+  EXPECT_GT(moved, 150);  // the edges past the limit were moved, by both
+  EXPECT_EQ(checked, 801);
+}
+
 namespace {
 
 /// Central finite-difference Jacobian d f / d x (columns = partials) of a Vec3 -> Vec3 map.

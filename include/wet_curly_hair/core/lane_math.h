@@ -257,6 +257,13 @@ WCH_INLINE V3<S> operator*(const M33<S>& a, const V3<S>& v) {
           a.m[1][0] * v.x + a.m[1][1] * v.y + a.m[1][2] * v.z,
           a.m[2][0] * v.x + a.m[2][1] * v.y + a.m[2][2] * v.z};
 }
+/// a^T v.
+template <typename S>
+WCH_INLINE V3<S> transposeTimes(const M33<S>& a, const V3<S>& v) {
+  return {a.m[0][0] * v.x + a.m[1][0] * v.y + a.m[2][0] * v.z,
+          a.m[0][1] * v.x + a.m[1][1] * v.y + a.m[2][1] * v.z,
+          a.m[0][2] * v.x + a.m[1][2] * v.y + a.m[2][2] * v.z};
+}
 template <typename S>
 WCH_INLINE M33<S> operator*(const M33<S>& a, const M33<S>& b) {
   M33<S> r;
@@ -321,26 +328,6 @@ WCH_INLINE M33<S> isotropicPlusDyads(const S& a, const S& b, const V3<S>& u, con
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) r.m[i][j] = b * (uu[i] * uu[j]) + c * (ww[i] * ww[j]);
   for (int i = 0; i < 3; ++i) r.m[i][i] += a;
-  return r;
-}
-/// The inverse by cofactors (as Eigen's 3x3 inverse).
-template <typename S>
-WCH_INLINE M33<S> inverse(const M33<S>& a) {
-  const S(&m)[3][3] = a.m;
-  const S c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1];
-  const S c10 = m[1][2] * m[2][0] - m[1][0] * m[2][2];
-  const S c20 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
-  const S inv_det = splat<S>(1.0) / (c00 * m[0][0] + c10 * m[0][1] + c20 * m[0][2]);
-  M33<S> r;
-  r.m[0][0] = c00 * inv_det;
-  r.m[1][0] = c10 * inv_det;
-  r.m[2][0] = c20 * inv_det;
-  r.m[0][1] = (m[2][1] * m[0][2] - m[2][2] * m[0][1]) * inv_det;
-  r.m[1][1] = (m[2][2] * m[0][0] - m[2][0] * m[0][2]) * inv_det;
-  r.m[2][1] = (m[2][0] * m[0][1] - m[2][1] * m[0][0]) * inv_det;
-  r.m[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * inv_det;
-  r.m[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * inv_det;
-  r.m[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * inv_det;
   return r;
 }
 
