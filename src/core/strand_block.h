@@ -305,11 +305,11 @@ V3<S> rootsFramesTargets(Block<S>& blk, const SubstepMotion& motion) {
   }
   a.v[0] = (root_next - a.p[0]) / splat<S>(blk.h);
   smoothDifferences(a.p, blk.n, blk.beta_bend, a.d);
-  V3<S> tangent = column(frame, 0);
+  V3<S> tangent = column(frame, 0), normal = column(frame, 1);
   a.target[0] = frame * a.local_target[0];
   for (int i = 1; i < blk.edges; ++i) {
-    transportFrame(a.d[i - 1], i, &frame, &tangent);
-    a.target[i] = frame * a.local_target[i];
+    transportFrame(a.d[i - 1], i, &tangent, &normal);
+    a.target[i] = inFrame(tangent, normal, a.local_target[i]);
   }
   smoothDifferences(a.p, blk.n, blk.beta_core, a.b);
   return root_next;

@@ -19,22 +19,40 @@ WCH_INLINE Vec3 anyPerpendicular(const Vec3& a) {
   return a.cross(helper).normalized();
 }
 
-/// I + [v]_x + [v]_x^2 / (1 + c), v = from x to, c = from . to: the rotation taking unit
-/// `from` onto unit `to` in the 1/(1+c) form, which has no cancellation at small angles
-/// (physics.md §10.5); loses all precision as the two become opposite (minimalRotation).
+/// The terms of I + [v]_x + [v]_x^2 / (1 + c), v = from x to, c = from . to: the rotation
+/// taking unit `from` onto unit `to` in the 1/(1+c) form, which has no cancellation at small
+/// angles (physics.md §10.5); loses all precision as the two become opposite (minimalRotation).
+/// With [v]_x^2 = v v^T - |v|^2 I and w = v / (1 + c) it is diagonal I + [v]_x + v w^T,
+/// diagonal = 1 - v . w: one reciprocal, no cancellation. The matrix (rodrigues) and its action
+/// on a vector (rodriguesApplied) are both formed from these terms.
+template <typename S>
+struct RodriguesTerms {
+  V3<S> v, w;
+  S diagonal;
+  WCH_INLINE RodriguesTerms(const V3<S>& from, const V3<S>& to, const S& c) {
+    v = cross(from, to);
+    w = (splat<S>(1.0) / (splat<S>(1.0) + c)) * v;
+    diagonal = splat<S>(1.0) - dot(v, w);
+  }
+};
 template <typename S>
 WCH_INLINE M33<S> rodrigues(const V3<S>& from, const V3<S>& to, const S& c) {
-  // [v]_x^2 = v v^T - |v|^2 I, scaled by one reciprocal: this runs for every edge of every
-  // strand on every substep, where a matrix product and nine divisions cost more than the rest.
-  const V3<S> v = cross(from, to);
-  const S inv_s = splat<S>(1.0) / (splat<S>(1.0) + c);
-  const V3<S> w = inv_s * v;
-  const S diagonal = splat<S>(1.0) - dot(v, w);
+  const RodriguesTerms<S> t(from, to, c);
+  const V3<S>& v = t.v;
+  const V3<S>& w = t.w;
   M33<S> r;
-  r.m[0][0] = diagonal + v.x * w.x, r.m[0][1] = v.x * w.y - v.z, r.m[0][2] = v.x * w.z + v.y;
-  r.m[1][0] = v.y * w.x + v.z, r.m[1][1] = diagonal + v.y * w.y, r.m[1][2] = v.y * w.z - v.x;
-  r.m[2][0] = v.z * w.x - v.y, r.m[2][1] = v.z * w.y + v.x, r.m[2][2] = diagonal + v.z * w.z;
+  r.m[0][0] = t.diagonal + v.x * w.x, r.m[0][1] = v.x * w.y - v.z, r.m[0][2] = v.x * w.z + v.y;
+  r.m[1][0] = v.y * w.x + v.z, r.m[1][1] = t.diagonal + v.y * w.y, r.m[1][2] = v.y * w.z - v.x;
+  r.m[2][0] = v.z * w.x - v.y, r.m[2][1] = v.z * w.y + v.x, r.m[2][2] = t.diagonal + v.z * w.z;
   return r;
+}
+/// rodrigues(from, to, c) x without the matrix: diagonal x + v x x + (w . x) v. The frame
+/// transport turns one vector per edge this way (a matrix and a matrix product cost twice as
+/// much, on every edge of every strand on every substep).
+template <typename S>
+WCH_INLINE V3<S> rodriguesApplied(const V3<S>& from, const V3<S>& to, const S& c, const V3<S>& x) {
+  const RodriguesTerms<S> t(from, to, c);
+  return t.diagonal * x + cross(t.v, x) + dot(t.w, x) * t.v;
 }
 
 /// Below this cosine two unit vectors count as opposite for minimalRotation.
@@ -61,6 +79,16 @@ WCH_INLINE M33<S> minimalRotation(const V3<S>& a, const V3<S>& b) {
 }
 WCH_INLINE Mat3 minimalRotation(const Vec3& a, const Vec3& b) {
   return toEigen(minimalRotation(toV3(a), toV3(b)));
+}
+/// minimalRotation(a, b) x, the matrix not formed (rodriguesApplied), the same rare branch.
+template <typename S>
+WCH_INLINE V3<S> minimalRotationApplied(const V3<S>& a, const V3<S>& b, const V3<S>& x) {
+  const S c = dot(a, b);
+  V3<S> r = rodriguesApplied(a, b, c, x);
+  patchLanes(c < splat<S>(kOppositeCosine), [&](int l) {
+    setLane(&r, l, Vec3(minimalRotationNearlyOpposite(lane(a, l), lane(b, l)) * lane(x, l)));
+  });
+  return r;
 }
 
 /// A right-handed orthonormal frame whose first column is `tangent` normalised and whose second
@@ -90,20 +118,42 @@ WCH_INLINE M33<S> orthonormalize(const M33<S>& f) {
 }
 WCH_INLINE Mat3 orthonormalize(const Mat3& f) { return toEigen(orthonormalize(toM33(f))); }
 
+/// An edge's frame from its tangent t and normal n (both unit, perpendicular): the columns t, n
+/// and the binormal t x n (right-handed).
+template <typename S>
+WCH_INLINE M33<S> frameOf(const V3<S>& t, const V3<S>& n) {
+  const V3<S> b = cross(t, n);
+  M33<S> f;
+  f.m[0][0] = t.x, f.m[1][0] = t.y, f.m[2][0] = t.z;
+  f.m[0][1] = n.x, f.m[1][1] = n.y, f.m[2][1] = n.z;
+  f.m[0][2] = b.x, f.m[1][2] = b.y, f.m[2][2] = b.z;
+  return f;
+}
+
+/// frameOf(t, n) x: x's coordinates in the frame back into the world (a bend target F e^loc).
+template <typename S>
+WCH_INLINE V3<S> inFrame(const V3<S>& t, const V3<S>& n, const V3<S>& x) {
+  return x.x * t + x.y * n + x.z * cross(t, n);
+}
+
 /// One edge of the parallel transport of the root frame along the smoothed differences d
 /// (physics.md §2.4): frame_i = R_min(T_{i-1} -> T_i) frame_{i-1}, T_i = d_{i-1} / |d_{i-1}|, so
-/// edge e_i gets a frame that depends on upstream geometry only. Where |d_{i-1}| vanishes (a
-/// strand folding back on itself) the frame and tangent are kept. On entry *frame and *tangent
-/// are edge i-1's; on return edge i's.
+/// edge e_i gets a frame that depends on upstream geometry only. A frame is carried as its
+/// tangent and normal (frameOf): the rotation takes the tangent onto T_i exactly, so only the
+/// normal is turned. Where |d_{i-1}| vanishes (a strand folding back on itself) the frame is
+/// kept. On entry *tangent and *normal are edge i-1's; on return edge i's.
 template <typename S>
-WCH_INLINE void transportFrame(const V3<S>& d_before, int i, M33<S>* frame, V3<S>* tangent) {
+WCH_INLINE void transportFrame(const V3<S>& d_before, int i, V3<S>* tangent, V3<S>* normal) {
   const S len = vsqrt(dot(d_before, d_before));
   const auto keep = len < splat<S>(kDirectionEpsilon);
   const V3<S> t = (splat<S>(1.0) / len) * d_before;
-  M33<S> next = minimalRotation(*tangent, t) * *frame;
-  // Round-off drift is removed every 16 edges; in double it stays below 1e-14 in between.
-  if ((i & 15) == 0) next = orthonormalize(next);
-  *frame = select(keep, *frame, next);
+  V3<S> n = minimalRotationApplied(*tangent, t, *normal);
+  if ((i & 15) == 0) {
+    // Round-off drift is removed every 16 edges; in double it stays below 1e-14 in between.
+    n = n - dot(n, t) * t;
+    n = (splat<S>(1.0) / vsqrt(dot(n, n))) * n;
+  }
+  *normal = select(keep, *normal, n);
   *tangent = select(keep, *tangent, t);
 }
 
@@ -111,11 +161,10 @@ WCH_INLINE void transportFrame(const V3<S>& d_before, int i, M33<S>* frame, V3<S
 WCH_INLINE void transportFrames(const Mat3& root, const Vec3* d, int edge_count, Mat3* frames) {
   if (edge_count < 1) return;
   frames[0] = root;
-  M33<double> frame = toM33(root);
-  V3<double> tangent = column(frame, 0);
+  V3<double> tangent = toV3(Vec3(root.col(0))), normal = toV3(Vec3(root.col(1)));
   for (int i = 1; i < edge_count; ++i) {
-    transportFrame(toV3(d[i - 1]), i, &frame, &tangent);
-    frames[i] = toEigen(frame);
+    transportFrame(toV3(d[i - 1]), i, &tangent, &normal);
+    frames[i] = toEigen(frameOf(tangent, normal));
   }
 }
 
