@@ -91,33 +91,6 @@ WCH_INLINE V3<S> minimalRotationApplied(const V3<S>& a, const V3<S>& b, const V3
   return r;
 }
 
-/// A right-handed orthonormal frame whose first column is `tangent` normalised and whose second
-/// column is `hint` made perpendicular to it (any perpendicular when hint is parallel to it).
-template <typename S>
-WCH_INLINE M33<S> frameFromTangent(const V3<S>& tangent, const V3<S>& hint) {
-  const V3<S> t = tangent / vsqrt(dot(tangent, tangent));
-  V3<S> n = hint - dot(hint, t) * t;
-  const S n_len = vsqrt(dot(n, n));
-  n = n / n_len;
-  patchLanes(n_len < splat<S>(1e-9), [&](int l) { setLane(&n, l, anyPerpendicular(lane(t, l))); });
-  const V3<S> b = cross(t, n);
-  M33<S> f;
-  f.m[0][0] = t.x, f.m[1][0] = t.y, f.m[2][0] = t.z;
-  f.m[0][1] = n.x, f.m[1][1] = n.y, f.m[2][1] = n.z;
-  f.m[0][2] = b.x, f.m[1][2] = b.y, f.m[2][2] = b.z;
-  return f;
-}
-WCH_INLINE Mat3 frameFromTangent(const Vec3& tangent, const Vec3& hint) {
-  return toEigen(frameFromTangent(toV3(tangent), toV3(hint)));
-}
-
-/// Re-orthonormalise a nearly orthonormal frame (Gram-Schmidt on the tangent first).
-template <typename S>
-WCH_INLINE M33<S> orthonormalize(const M33<S>& f) {
-  return frameFromTangent(column(f, 0), column(f, 1));
-}
-WCH_INLINE Mat3 orthonormalize(const Mat3& f) { return toEigen(orthonormalize(toM33(f))); }
-
 /// An edge's frame from its tangent t and normal n (both unit, perpendicular): the columns t, n
 /// and the binormal t x n (right-handed).
 template <typename S>
@@ -128,6 +101,21 @@ WCH_INLINE M33<S> frameOf(const V3<S>& t, const V3<S>& n) {
   f.m[0][1] = n.x, f.m[1][1] = n.y, f.m[2][1] = n.z;
   f.m[0][2] = b.x, f.m[1][2] = b.y, f.m[2][2] = b.z;
   return f;
+}
+
+/// A right-handed orthonormal frame whose first column is `tangent` normalised and whose second
+/// column is `hint` made perpendicular to it (any perpendicular when hint is parallel to it).
+template <typename S>
+WCH_INLINE M33<S> frameFromTangent(const V3<S>& tangent, const V3<S>& hint) {
+  const V3<S> t = tangent / vsqrt(dot(tangent, tangent));
+  V3<S> n = hint - dot(hint, t) * t;
+  const S n_len = vsqrt(dot(n, n));
+  n = n / n_len;
+  patchLanes(n_len < splat<S>(1e-9), [&](int l) { setLane(&n, l, anyPerpendicular(lane(t, l))); });
+  return frameOf(t, n);
+}
+WCH_INLINE Mat3 frameFromTangent(const Vec3& tangent, const Vec3& hint) {
+  return toEigen(frameFromTangent(toV3(tangent), toV3(hint)));
 }
 
 /// frameOf(t, n) x: x's coordinates in the frame back into the world (a bend target F e^loc).
