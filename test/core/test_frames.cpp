@@ -48,6 +48,36 @@ TEST(Frames, MinimalRotationMapsAOntoB) {
   EXPECT_LT((minimalRotation(a, -a) * a + a).norm(), 1e-12);
 }
 
+TEST(Frames, TheRotationAppliedIsTheMatrixTimesTheVector) {
+  // The transport turns a normal with minimalRotationApplied; the matrix form serves the curl
+  // rotations and the bending gradient: one rotation, both forms, the rare branch included
+  // (4 of the 8 cosines below -0.99, one of them -1), in double and in float lanes.
+  const Vec3 a = Vec3(0.3, -0.2, 0.9).normalized(), x = Vec3(-0.4, 0.8, 0.1);
+  const Vec3 bs[] = {a,
+                     Vec3(0.5, 0.5, -0.2).normalized(),
+                     (-a + Vec3(0.05, 0.08, 0)).normalized(),
+                     -a,
+                     Vec3(0, 1, 0),
+                     Vec3(-0.3, 0.25, -0.9).normalized(),
+                     (-a + Vec3(0, 0.1, 0.03)).normalized(),
+                     Vec3(1, 0, 0)};
+  const V3<LaneFloat8> la = splat3<LaneFloat8>(a), lx = splat3<LaneFloat8>(x);
+  V3<LaneFloat8> lb = zero3<LaneFloat8>();
+  int rare = 0;
+  for (int l = 0; l < 8; ++l) {
+    const Vec3& b = bs[l];
+    rare += a.dot(b) < kOppositeCosine;
+    const Vec3 applied = toEigen(minimalRotationApplied(toV3(a), toV3(b), toV3(x)));
+    EXPECT_LT((applied - minimalRotation(a, b) * x).norm(), 1e-15) << "b " << l;
+    EXPECT_NEAR(applied.norm(), x.norm(), 1e-15);
+    setLane(&lb, l, b);
+  }
+  EXPECT_EQ(rare, 4);
+  const V3<LaneFloat8> in_lanes = minimalRotationApplied(la, lb, lx);
+  for (int l = 0; l < 8; ++l)
+    EXPECT_LT((lane(in_lanes, l) - minimalRotation(a, bs[l]) * x).norm(), 1e-6) << "lane " << l;
+}
+
 TEST(Frames, MinimalRotationLeavesTheCommonPerpendicularAlone) {
   const Vec3 a(1, 0, 0), b = Vec3(1, 1, 0).normalized();
   EXPECT_LT((minimalRotation(a, b) * Vec3::UnitZ() - Vec3::UnitZ()).norm(), 1e-15);
