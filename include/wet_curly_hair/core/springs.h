@@ -133,9 +133,11 @@ WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const S& rest, c
   const S len = vsqrt(dot(e, e));
   const auto degenerate = len < splat<S>(degenerate_length);
   const S zero = splat<S>(0.0);
+  // One reciprocal for the direction and the ratio: twice per edge on every substep.
+  const S inv_len = splat<S>(1.0) / len;
   AxialJacobian<S> j;
-  j.u = select(degenerate, zero3<S>(), e / len);
-  j.isotropic = select(degenerate, zero, k * vmax(zero, splat<S>(1.0) - rest / len));
+  j.u = select(degenerate, zero3<S>(), inv_len * e);
+  j.isotropic = select(degenerate, zero, k * vmax(zero, splat<S>(1.0) - rest * inv_len));
   j.axial = select(degenerate, zero, k - j.isotropic);
   return j;
 }
