@@ -100,7 +100,9 @@ TEST(CurlFilter, TheSlerpTurnsByTheFractionOfTheAngle) {
       detail::updateCurlRotations(m, &strand, &axis, &update, 1, f, &state);
       const Eigen::AngleAxisd left(state.curl_rotation[0]);
       EXPECT_NEAR(left.angle(), (1.0 - f) * phi, 1e-12) << phi << " " << f;
-      if (phi > 1e-3) EXPECT_LT((left.axis() - n).norm(), 1e-12);
+      if (phi > 1e-3) {
+        EXPECT_LT((left.axis() - n).norm(), 1e-12);
+      }
     }
   }
 }

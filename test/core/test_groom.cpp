@@ -108,7 +108,9 @@ TEST(Groom, HelixAngleStepGivesTheChord) {
       const double dt = helixAngleStepForChord(r, p, 0.008);
       const double chord =
           std::sqrt(4 * r * r * std::pow(std::sin(dt / 2), 2) + std::pow(p / (2 * M_PI) * dt, 2));
-      if (dt < M_PI) EXPECT_NEAR(chord, 0.008, 1e-12);
+      if (dt < M_PI) {
+        EXPECT_NEAR(chord, 0.008, 1e-12);
+      }
     }
   }
 }

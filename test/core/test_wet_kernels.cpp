@@ -117,7 +117,9 @@ TEST(Adhesion, KernelOnLanesIsTheScalarKernel) {
         const double expected = adhesionKernel(double(r[l]), h, literal);
         const bool steep = std::abs(r[l] - 0.5 * h) < 1e-4 * h || std::abs(r[l] - h) < 1e-4 * h;
         EXPECT_NEAR(a16[l], expected, (steep ? 1e-2 : 1e-5) * peak) << r[l];
-        if (l < 4) EXPECT_NEAR(a4[l], expected, 1e-12 * peak) << r[l];
+        if (l < 4) {
+          EXPECT_NEAR(a4[l], expected, 1e-12 * peak) << r[l];
+        }
       }
     }
   }
