@@ -30,8 +30,8 @@ WCH_INLINE M33<S> inverseSymmetric(const M33<S>& a) {
   return r;
 }
 
-/// The upper triangle of a b where the product is known to be symmetric (b = X a with X
-/// symmetric: a X a), the lower triangle left unset.
+/// *from -= a b on the upper triangle only, for a product known to be symmetric (a symmetric and
+/// b = X a with X symmetric: a X a); the lower triangle is not touched.
 template <typename S>
 WCH_INLINE void subtractSymmetricProduct(const M33<S>& a, const M33<S>& b, M33<S>* from) {
   for (int r = 0; r < 3; ++r)
