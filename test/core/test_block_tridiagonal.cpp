@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <random>
 #include <vector>
 
@@ -17,9 +18,9 @@ namespace {
 /// k n n^T + d (I - n n^T), and a right-hand side.
 struct StrandSystem {
   int n = 0;
-  std::vector<Mat3> block, external;
+  Mat3List block, external;
   std::vector<double> mass;
-  std::vector<Vec3> rhs;
+  Vec3List rhs;
 };
 
 StrandSystem randomSystem(int n, unsigned seed, bool with_external) {
