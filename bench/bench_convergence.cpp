@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/groom.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/model.h"
@@ -115,18 +116,6 @@ double rmsError(const Trace& a, const Trace& reference) {
   return std::sqrt(sum / std::max<size_t>(count, 1)) / reference.length_m;
 }
 
-std::string cpuName() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, name = "unknown CPU", flags;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0 && name == "unknown CPU")
-      name = line.substr(line.find(':') + 2);
-    if (line.rfind("flags", 0) == 0 && flags.empty()) flags = line;
-  }
-  return name +
-         (flags.find(" avx512f") != std::string::npos ? " (AVX-512)" : " (AVX2, no AVX-512)");
-}
-
 /// Error against cost from DIR/NAME.csv into DIR/NAME.png, one curve per resolution.
 void plot(const std::string& dir, const std::string& name, const std::string& title,
           const std::vector<int>& resolutions) {
@@ -202,7 +191,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: bench_convergence [--out DIR] [--seconds T] [--runs N]\n");
     return 2;
   }
-  std::printf("%s; %g s of the nod\n", cpuName().c_str(), seconds);
+  std::printf("%s; %g s of the nod\n", bench::cpuLine().c_str(), seconds);
   const std::vector<int> resolutions = {16, 32, 64, 128};
   std::vector<Setting> strand_settings, groom_settings;
   for (int n : resolutions) {

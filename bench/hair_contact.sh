@@ -17,7 +17,7 @@ seconds=${WCH_CONTACT_SECONDS:-2}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out" "$img"
-cpu=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
+cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //') (family $(grep -m1 'cpu family' /proc/cpuinfo | sed 's/.*: //'), model $(grep -m1 -P '^model\t' /proc/cpuinfo | sed 's/.*: //'))"
 avx512=$(grep -q avx512f /proc/cpuinfo && echo yes || echo no)
 run() {  # name motion contact [extra...]
   local name=$1 motion=$2 contact=$3
