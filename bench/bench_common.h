@@ -3,7 +3,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <string>
 
 #include "wet_curly_hair/core/head_motion.h"
@@ -13,28 +12,14 @@
 #include "wet_curly_hair/core/state.h"
 #include "wet_curly_hair/io/scene.h"
 #include "wet_curly_hair/io/scene_setup.h"
+#include "wet_curly_hair/runner/offline_run.h"
 
 namespace wet_curly_hair {
 namespace bench {
 
-/// The first "model name" line of /proc/cpuinfo with its "cpu family" and "model" numbers, and
-/// whether the flags list avx512f: named beside every figure. The numbers tell generations apart
-/// that share a name: a 2 vCPU "AMD EPYC" of family 23 model 1 (Zen 1, AVX2 on 128-bit units) ran
-/// the 10,000-strand targets at about half the speed of the EPYCs measured before it.
-inline std::string cpuLine() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line, model = "unknown CPU", family, number;
-  bool avx512 = false;
-  auto value = [&line] { return line.substr(line.find(':') + 2); };
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0 && model == "unknown CPU") model = value();
-    if (line.rfind("cpu family", 0) == 0 && family.empty()) family = value();
-    if (line.rfind("model\t", 0) == 0 && number.empty()) number = value();
-    if (line.rfind("flags", 0) == 0 && line.find(" avx512f") != std::string::npos) avx512 = true;
-  }
-  if (!family.empty() && !number.empty()) model += " (family " + family + ", model " + number + ")";
-  return model + (avx512 ? ", avx512f" : ", no avx512f");
-}
+/// The CPU, named beside every figure (io::describeCpu: its name, family and model numbers, and
+/// whether it has avx512f).
+inline std::string cpuLine() { return io::describeThisCpu(); }
 
 /// Monotonic wall seconds (the benches time; the core never reads a clock).
 inline double now() {

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <limits>
 
 #include "wet_curly_hair/core/diagnostics.h"
@@ -22,6 +23,32 @@
 
 namespace wet_curly_hair {
 namespace io {
+
+std::string describeCpu(std::istream& cpuinfo) {
+  std::string line, model, family, number;
+  bool avx512 = false;
+  while (std::getline(cpuinfo, line)) {
+    // "key<tabs>: value": "model\t\t: 1" is the model number, "model name\t: ..." the name.
+    const size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    const size_t key_end = line.find_last_not_of(" \t", colon == 0 ? 0 : colon - 1);
+    const std::string key = colon == 0 ? std::string() : line.substr(0, key_end + 1);
+    const size_t value_start = line.find_first_not_of(" \t", colon + 1);
+    const std::string value = value_start == std::string::npos ? "" : line.substr(value_start);
+    if (key == "model name" && model.empty()) model = value;
+    if (key == "cpu family" && family.empty()) family = value;
+    if (key == "model" && number.empty()) number = value;
+    if (key == "flags" && (" " + value + " ").find(" avx512f ") != std::string::npos) avx512 = true;
+  }
+  if (model.empty()) model = "unknown CPU";
+  if (!family.empty() && !number.empty()) model += " (family " + family + ", model " + number + ")";
+  return model + (avx512 ? ", avx512f" : ", no avx512f");
+}
+
+std::string describeThisCpu() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  return describeCpu(cpuinfo);
+}
 
 std::string RunSummary::toJson() const {
   JsonObject o;
@@ -111,6 +138,7 @@ std::string RunSummary::toJson() const {
       .add("integrator", integrator)
       .add("lane_layout", lane_layout)
       .add("threads", threads)
+      .add("cpu", cpu)
       .add("cohesion", cohesion)
       .add("cohesion_gather_at", cohesion_gather_at)
       .add("cohesion_refresh_period_s", cohesion_refresh_period_s)
@@ -245,6 +273,7 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
                       ? std::string(scene.solver.integrator.resolvedLaneLayout())
                       : std::string("off");
   s.threads = scene.solver.integrator.resolvedThreads();
+  s.cpu = describeThisCpu();
   const CohesionConfig& c = scene.solver.cohesion;
   s.cohesion = c.mode != "ours"         ? c.mode
                : c.evaluation == "grid" ? "grid" + std::to_string(c.grid_cells_per_radius)

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -45,10 +46,31 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   ASSERT_TRUE(readHairFile(options.hair_frames_dir + "/frame_00030.hair", &frame, &why)) << why;
   EXPECT_EQ(frame.strandCount(), 10);
   const std::string json = s.toJson();
-  for (const char* key : {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"",
-                          "\"wall_s\"", "\"sim_s\"", "\"max_strain\"", "\"mean_strain\"",
-                          "\"max_penetration_m\"", "\"repairs\"", "\"energy\"", "\"finite\""})
+  for (const char* key :
+       {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"", "\"wall_s\"", "\"sim_s\"",
+        "\"max_strain\"", "\"mean_strain\"", "\"max_penetration_m\"", "\"repairs\"", "\"energy\"",
+        "\"finite\"", "\"cpu\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
+  EXPECT_EQ(s.cpu, describeThisCpu());
+}
+
+TEST(OfflineRun, TheCpuIsNamedWithItsFamilyModelAndAvx512) {
+  // Two processors of a Zen 1 EPYC as /proc/cpuinfo lists them: the first one's values count.
+  std::istringstream zen1(
+      "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 23\nmodel\t\t: 1\n"
+      "model name\t: AMD EPYC\nstepping\t: 2\nflags\t\t: fpu sse2 avx2 fma\n\n"
+      "processor\t: 1\ncpu family\t: 25\nmodel\t\t: 17\nmodel name\t: Other\n");
+  EXPECT_EQ(describeCpu(zen1), "AMD EPYC (family 23, model 1), no avx512f");
+  // The name before the number, and avx512f as a whole flag, last on its line.
+  std::istringstream xeon(
+      "model name\t: Intel(R) Xeon(R) Processor\ncpu family\t: 6\nmodel\t\t: 143\n"
+      "flags\t\t: avx2 avx512f\n");
+  EXPECT_EQ(describeCpu(xeon), "Intel(R) Xeon(R) Processor (family 6, model 143), avx512f");
+  // avx512fp16 alone is not avx512f.
+  std::istringstream fp16_only("model name\t: X\nflags\t\t: avx512fp16 avx2\n");
+  EXPECT_EQ(describeCpu(fp16_only), "X, no avx512f");
+  std::istringstream empty("");
+  EXPECT_EQ(describeCpu(empty), "unknown CPU, no avx512f");
 }
 
 TEST(OfflineRun, FollowRatioReportsOutputAndGuideStrandsAndWritesEveryStrand) {

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -201,6 +202,7 @@ struct RunSummary {
   /// solver.integrator.lane_layout, or "off" when strands run one at a time (strand_lanes).
   std::string lane_layout;
   int threads = 1;  ///< solver.integrator.threads
+  std::string cpu;  ///< the machine's CPU (describeCpu), named beside every figure of the run
   /// The cohesion display pass that ran: "off", "exact" or "grid<nodes per radius>" (mode
   /// "ours"; the baselines' mode otherwise), where its sums ran (solver.cohesion.gather_at), how
   /// often its offsets were refreshed (refresh_period_s; 0: every step) and whether the lattice
@@ -220,6 +222,15 @@ struct RunSummary {
   double measure_wall_s = 0.0;
   std::string toJson() const;
 };
+
+/// The CPU a figure was measured on, from /proc/cpuinfo's text: the first "model name", its
+/// "cpu family" and "model" numbers, and whether the flags list avx512f, as in "AMD EPYC (family
+/// 23, model 1), no avx512f". The numbers tell apart generations that share a name: that Zen 1
+/// EPYC (AVX2 on 128-bit units) ran the 10,000-strand targets at 0.4-0.5 times the speed of the
+/// "AMD EPYC" measured before it. "unknown CPU" when the text has no model name.
+std::string describeCpu(std::istream& cpuinfo);
+/// describeCpu of this machine's /proc/cpuinfo.
+std::string describeThisCpu();
 
 /// The scene's groom on the head at t = 0, wet as its `saturation` section says.
 HairState initialSceneState(const SceneConfig& scene, const HairModel& model);
