@@ -16,10 +16,12 @@ void StrandScratch::resize(int n) {
   for (Vec3List* v : {&bend_p, &bend_force, &bend_adjoint}) v->assign(n, Vec3::Zero());
   velocity_factor.assign(n, 1.0);
   // The strand block (strand_block.h, carveBlockArrays): per particle 15 lane vectors of 3 lane
-  // values, 3 lane matrices of 9 and 11 lane scalars, a lane value being at most 64 bytes (8
-  // doubles or 16 floats), then two 3-vectors of doubles for one lane, plus alignment slack.
+  // values, 3 lane matrices of 9, 11 lane scalars and 2 axial lengths of 2, a lane value being at
+  // most 64 bytes (8 doubles or 16 floats), then two 3-vectors of doubles for one lane, plus
+  // alignment slack.
   lane_capacity = n;
-  lane_buffer.assign(static_cast<size_t>(n) * ((15 * 3 + 3 * 9 + 11) * 8 + 2 * 3) + 16, 0.0);
+  lane_buffer.assign(static_cast<size_t>(n) * ((15 * 3 + 3 * 9 + 11 + 2 * 2) * 8 + 2 * 3) + 16,
+                     0.0);
 }
 
 void NeighborGrid::resize(int particles, const std::vector<uint32_t>& strand_offsets) {

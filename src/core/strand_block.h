@@ -48,6 +48,9 @@ struct BlockArrays {
   S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
   S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
   S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
+  /// Per edge: axialLength of the edge and of the smoothed difference b, as elasticForces formed
+  /// them for the stretch and core forces; the implicit terms reuse them (same positions).
+  AxialLength<S>*edge_length, *core_length;
   /// Distance caches (distanceNeeded): where each particle's obstacle and head distances were
   /// last evaluated, and how far it may move from there before either may act (negative:
   /// evaluate next time). The head's in the head frame.
@@ -80,6 +83,8 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   a.block = m3(), a.pivot_inverse = m3(), a.external_block = m3();
   a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
   a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
+  a.edge_length = reinterpret_cast<AxialLength<S>*>(take(2));
+  a.core_length = reinterpret_cast<AxialLength<S>*>(take(2));
   a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
   a.head_anchor = v3(), a.head_slack = s1();
   bytes += (8 - reinterpret_cast<uintptr_t>(bytes) % 8) % 8;
@@ -330,8 +335,11 @@ void elasticForces(Block<S>& blk) {
   const bool core_local = !blk.plan.core_filter_gradient;
   for (int i = 0; i < blk.edges; ++i) {
     const V3<S> e = a.p[i + 1] - a.p[i];
-    V3<S> fs = stretchForce(e, a.rest[i], a.stretch_k[i]) + bendForce(e, a.target[i], blk.bend_k);
-    if (core_local) fs += coreForce(a.b[i], a.core_rest[i], blk.core_k);
+    a.edge_length[i] = axialLength(e);
+    a.core_length[i] = axialLength(a.b[i]);
+    V3<S> fs = stretchForce(e, a.edge_length[i], a.rest[i], a.stretch_k[i]) +
+               bendForce(e, a.target[i], blk.bend_k);
+    if (core_local) fs += coreForce(a.b[i], a.core_length[i], a.core_rest[i], blk.core_k);
     a.f[i] += fs;
     a.f[i + 1] -= fs;
   }
@@ -343,7 +351,8 @@ void elasticForces(Block<S>& blk) {
     for (int i = 0; i < blk.n; ++i) parts[i] = zero3<S>();
   if (!core_local) {
     // a.nu is free until the damping recomputes it.
-    for (int i = 0; i < blk.edges; ++i) a.nu[i] = coreForce(a.b[i], a.core_rest[i], blk.core_k);
+    for (int i = 0; i < blk.edges; ++i)
+      a.nu[i] = coreForce(a.b[i], a.core_length[i], a.core_rest[i], blk.core_k);
     applyEdgeForcesThroughFilter(blk, a.nu, parts);
   }
   if (blk.plan.bend_frame_gradient) bendFrameGradientForces(blk, a.p, parts);
@@ -610,9 +619,9 @@ void implicitVelocitySolve(Block<S>& blk, const V3<S>& omega) {
   for (int i = 0; i < blk.edges; ++i) {
     q.k_s = a.stretch_k[i], q.c_s = a.stretch_c[i];
     const S curl = blk.curl_stiffness * splat<S>(0.5) * (a.sigma[i] + a.sigma[i + 1]);
-    const EdgeImplicitTerms<S> t =
-        edgeImplicitTerms(q, a.p[i + 1] - a.p[i], a.v[i + 1] - a.v[i], a.rest[i], a.b[i],
-                          a.core_rest[i], a.nu[i], blk.core_gain, curl, omega);
+    const EdgeImplicitTerms<S> t = edgeImplicitTerms(
+        q, a.p[i + 1] - a.p[i], a.edge_length[i], a.v[i + 1] - a.v[i], a.rest[i], a.b[i],
+        a.core_length[i], a.core_rest[i], a.nu[i], blk.core_gain, curl, omega);
     a.block[i] = t.block;
     a.f[i] += t.explicit_force;
     a.f[i + 1] -= t.explicit_force;

@@ -177,8 +177,9 @@ TEST(Springs, ImplicitEdgeBlockIsThetaHTimesDampingPlusThetaHTimesStiffness) {
                         Case{Vec3(0, 0, 0.0084), Vec3(0, 0, 0.0081)},
                         Case{Vec3(0.001, 0, 0.0083), Vec3(-0.001, 0, -0.0085)}}) {
     const Vec3 dv(0.05, -0.01, 0.02);
-    const EdgeImplicitTerms<double> terms = edgeImplicitTerms(
-        q, toV3(c.e), toV3(dv), 0.008, toV3(c.b), 0.0080, toV3(nu), gain, curl_k, toV3(omega));
+    const EdgeImplicitTerms<double> terms =
+        edgeImplicitTerms(q, toV3(c.e), axialLength(toV3(c.e)), toV3(dv), 0.008, toV3(c.b),
+                          axialLength(toV3(c.b)), 0.0080, toV3(nu), gain, curl_k, toV3(omega));
     auto elastic = [&](const Vec3& e) {
       return Vec3(stretchForce(e, 0.008, q.k_s) + bendForce(e, t, q.k_b) + curl_k * e);
     };

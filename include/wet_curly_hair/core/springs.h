@@ -19,29 +19,58 @@ namespace wet_curly_hair {
 /// Below this length a smoothed difference b has no direction (the core spring is off).
 constexpr double kCoreDirectionEpsilon = 1e-9;
 
-/// The axial spring shared by eqs. (1) and (5): k (|x| - L) x^, zero where |x| is below
-/// `degenerate_length` (no direction).
+/// The length of an axial spring's vector x and its reciprocal. Formed once per edge and substep
+/// for the stretch and core springs (elasticForces) and reused by their Jacobians
+/// (edgeImplicitTerms), which would otherwise take the same square root and division again.
 template <typename S>
-WCH_INLINE V3<S> axialSpringForce(const V3<S>& x, const S& rest_length, const S& k,
-                                  double degenerate_length) {
-  const S len = vsqrt(dot(x, x));
-  return select(len < splat<S>(degenerate_length), zero3<S>(), (k * (len - rest_length) / len) * x);
+struct AxialLength {
+  S len;
+  S inv_len;  ///< 1 / len (infinite for x = 0, where every user selects zero)
+};
+
+template <typename S>
+WCH_INLINE AxialLength<S> axialLength(const V3<S>& x) {
+  AxialLength<S> l;
+  l.len = vsqrt(dot(x, x));
+  l.inv_len = splat<S>(1.0) / l.len;
+  return l;
 }
 
-/// The axial damper shared by eqs. (1) and (5): c (w . x^) x^, zero where |x| is below
-/// `degenerate_length`.
+/// The axial spring shared by eqs. (1) and (5): k (|x| - L) x^, zero where |x| is below
+/// `degenerate_length` (no direction); `length` is axialLength(x).
+template <typename S>
+WCH_INLINE V3<S> axialSpringForce(const V3<S>& x, const AxialLength<S>& length,
+                                  const S& rest_length, const S& k, double degenerate_length) {
+  return select(length.len < splat<S>(degenerate_length), zero3<S>(),
+                (k * (length.len - rest_length) * length.inv_len) * x);
+}
+
+/// The axial damper shared by eqs. (1) and (5): c (w . x^) x^ = c (w . x) x / |x|^2, given
+/// inv_len2 = 1 / |x|^2; zero where |x| is below `degenerate_length`.
+template <typename S>
+WCH_INLINE V3<S> axialDampingForce(const V3<S>& x, const V3<S>& w, const S& c, const S& inv_len2,
+                                   double degenerate_length) {
+  return select(dot(x, x) < splat<S>(degenerate_length * degenerate_length), zero3<S>(),
+                (c * dot(w, x) * inv_len2) * x);
+}
+
 template <typename S>
 WCH_INLINE V3<S> axialDampingForce(const V3<S>& x, const V3<S>& w, const S& c,
                                    double degenerate_length) {
-  const S len2 = dot(x, x);
-  return select(len2 < splat<S>(degenerate_length * degenerate_length), zero3<S>(),
-                (c * dot(w, x) / len2) * x);
+  return axialDampingForce(x, w, c, splat<S>(1.0) / dot(x, x), degenerate_length);
 }
 
-/// Eq. (1), elastic part: k_s (|e| - |e0|) e^. Zero for a degenerate edge.
+/// Eq. (1), elastic part: k_s (|e| - |e0|) e^. Zero for a degenerate edge. `length` is
+/// axialLength(edge).
+template <typename S>
+WCH_INLINE V3<S> stretchForce(const V3<S>& edge, const AxialLength<S>& length, const S& rest_length,
+                              const S& k_s) {
+  return axialSpringForce(edge, length, rest_length, k_s, kDirectionEpsilon);
+}
+
 template <typename S>
 WCH_INLINE V3<S> stretchForce(const V3<S>& edge, const S& rest_length, const S& k_s) {
-  return axialSpringForce(edge, rest_length, k_s, kDirectionEpsilon);
+  return stretchForce(edge, axialLength(edge), rest_length, k_s);
 }
 
 /// Eq. (1), damping part: c_s (dv . e^) e^, with dv = v_{i+1} - v_i.
@@ -65,14 +94,27 @@ WCH_INLINE V3<S> bendDampingForce(const V3<S>& edge, const V3<S>& dv, const S& c
 }
 
 /// Eq. (5), elastic part: k_c (|b| - |b0|) b^, b the i-th difference of the alpha_c-smoothed
-/// curve. Zero when |b| vanishes (flat curls, folded strands; physics.md §10.3).
+/// curve. Zero when |b| vanishes (flat curls, folded strands; physics.md §10.3). `length` is
+/// axialLength(b).
+template <typename S>
+WCH_INLINE V3<S> coreForce(const V3<S>& b, const AxialLength<S>& length, const S& rest_length,
+                           const S& k_c) {
+  return axialSpringForce(b, length, rest_length, k_c, kCoreDirectionEpsilon);
+}
+
 template <typename S>
 WCH_INLINE V3<S> coreForce(const V3<S>& b, const S& rest_length, const S& k_c) {
-  return axialSpringForce(b, rest_length, k_c, kCoreDirectionEpsilon);
+  return coreForce(b, axialLength(b), rest_length, k_c);
 }
 
 /// Eq. (5), damping part: c_c (nu . b^) b^, nu the smoothed relative velocity zeta(V, alpha_c)_i
-/// (A5).
+/// (A5). `length` is axialLength(b).
+template <typename S>
+WCH_INLINE V3<S> coreDampingForce(const V3<S>& b, const AxialLength<S>& length, const V3<S>& nu,
+                                  const S& c_c) {
+  return axialDampingForce(b, nu, c_c, length.inv_len * length.inv_len, kCoreDirectionEpsilon);
+}
+
 template <typename S>
 WCH_INLINE V3<S> coreDampingForce(const V3<S>& b, const V3<S>& nu, const S& c_c) {
   return axialDampingForce(b, nu, c_c, kCoreDirectionEpsilon);
@@ -127,19 +169,24 @@ struct AxialJacobian {
   S isotropic;
   S axial;  ///< added along u u^T
 };
+/// `length` is axialLength(e): the force's square root and reciprocal, shared.
+template <typename S>
+WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const AxialLength<S>& length,
+                                                const S& rest, const S& k,
+                                                double degenerate_length) {
+  const auto degenerate = length.len < splat<S>(degenerate_length);
+  const S zero = splat<S>(0.0);
+  AxialJacobian<S> j;
+  j.u = select(degenerate, zero3<S>(), length.inv_len * e);
+  j.isotropic = select(degenerate, zero, k * vmax(zero, splat<S>(1.0) - rest * length.inv_len));
+  j.axial = select(degenerate, zero, k - j.isotropic);
+  return j;
+}
+
 template <typename S>
 WCH_INLINE AxialJacobian<S> axialSpringJacobian(const V3<S>& e, const S& rest, const S& k,
                                                 double degenerate_length) {
-  const S len = vsqrt(dot(e, e));
-  const auto degenerate = len < splat<S>(degenerate_length);
-  const S zero = splat<S>(0.0);
-  // One reciprocal for the direction and the ratio: twice per edge on every substep.
-  const S inv_len = splat<S>(1.0) / len;
-  AxialJacobian<S> j;
-  j.u = select(degenerate, zero3<S>(), inv_len * e);
-  j.isotropic = select(degenerate, zero, k * vmax(zero, splat<S>(1.0) - rest * inv_len));
-  j.axial = select(degenerate, zero, k - j.isotropic);
-  return j;
+  return axialSpringJacobian(e, axialLength(e), rest, k, degenerate_length);
 }
 
 /// What the implicit integrators need of one edge (physics.md §9.2, steps 4-5): the coupling
@@ -164,15 +211,15 @@ struct EdgeImplicitParams {
   S theta_h;                       ///< theta times the substep, s.
   bool core_damping = true;        ///< false when c_c is 0 on every lane (skips its terms).
 };
+/// e_length and b_length are axialLength(e) and axialLength(b), as the forces formed them.
 template <typename S>
-WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams<S>& q, const V3<S>& e,
-                                                  const V3<S>& dv, const S& rest, const V3<S>& b,
-                                                  const S& core_rest, const V3<S>& nu,
-                                                  const S& core_local_gain, const S& curl_stiffness,
-                                                  const V3<S>& omega) {
-  const AxialJacobian<S> stretch = axialSpringJacobian(e, rest, q.k_s, kDirectionEpsilon);
+WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(
+    const EdgeImplicitParams<S>& q, const V3<S>& e, const AxialLength<S>& e_length, const V3<S>& dv,
+    const S& rest, const V3<S>& b, const AxialLength<S>& b_length, const S& core_rest,
+    const V3<S>& nu, const S& core_local_gain, const S& curl_stiffness, const V3<S>& omega) {
+  const AxialJacobian<S> stretch = axialSpringJacobian(e, e_length, rest, q.k_s, kDirectionEpsilon);
   const AxialJacobian<S> core =
-      axialSpringJacobian(b, core_rest, q.k_c * core_local_gain, kDirectionEpsilon);
+      axialSpringJacobian(b, b_length, core_rest, q.k_c * core_local_gain, kDirectionEpsilon);
   const S th = q.theta_h;
   const S has_axis =
       select(dot(stretch.u, stretch.u) > splat<S>(0.0), splat<S>(1.0), splat<S>(0.0));
@@ -183,8 +230,8 @@ WCH_INLINE EdgeImplicitTerms<S> edgeImplicitTerms(const EdgeImplicitParams<S>& q
   t.block = isotropicPlusDyads(alpha, beta, stretch.u, gamma, core.u);
   t.explicit_force = -q.c_b * cross(omega, e);
   if (q.core_damping)
-    t.explicit_force +=
-        coreDampingForce(b, nu, q.c_c) - (q.c_c * core_local_gain * dot(core.u, dv)) * core.u;
+    t.explicit_force += coreDampingForce(b, b_length, nu, q.c_c) -
+                        (q.c_c * core_local_gain * dot(core.u, dv)) * core.u;
   return t;
 }
 
