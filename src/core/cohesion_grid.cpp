@@ -572,8 +572,10 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolu
     V w_sum = zero, px = zero, py = zero, pz = zero;
     for (int j = begin; j < end; ++j) {
       const V ex = (kx[j] - kxi) - txi, ey = (ky[j] - kyi) - tyi, ez = (kz[j] - kzi) - tzi;
-      const V x2[2] = {ex * ex, (ex + 1.0f) * (ex + 1.0f)},
-              y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
+      // h^2 less the squared distance to each corner, as (h^2 - x^2) - (y^2 + z^2): the two
+      // x terms and four y-z sums are shared by the 8 corners.
+      const V reach_x[2] = {h2 - ex * ex, h2 - (ex + 1.0f) * (ex + 1.0f)};
+      const V y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
               z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
       const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
                   wz[2] = {1.0f - tz[j], tz[j]};
@@ -581,12 +583,14 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolu
       nv.cornerFactors<kNodeVolumes>(L, *g, j, corner);
       V wt = zero;
       for (int az = 0; az < 2; ++az)
-        for (int ay = 0; ay < 2; ++ay)
+        for (int ay = 0; ay < 2; ++ay) {
+          const V yz = y2[ay] + z2[az];
           for (int ax = 0; ax < 2; ++ax) {
-            const V q = positivePart(h2 - (x2[ax] + y2[ay] + z2[az]));
+            const V q = positivePart(reach_x[ax] - yz);
             wt +=
                 (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
           }
+        }
       const V ws = wet[j] * wt;
       w_sum += (kNodeVolumes ? 1.0f : vol[j]) * wt;
       px += ws * (ex + tx[j]);  // (p_j - p_i) / c = (k_j - k_i) + t_j - t_i
