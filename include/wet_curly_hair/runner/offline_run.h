@@ -226,8 +226,8 @@ struct RunSummary {
 /// The CPU a figure was measured on, from /proc/cpuinfo's text: the first "model name", its
 /// "cpu family" and "model" numbers, and whether the flags list avx512f, as in "AMD EPYC (family
 /// 23, model 1), no avx512f". The numbers tell apart generations that share a name: that Zen 1
-/// EPYC (AVX2 on 128-bit units) ran the 10,000-strand targets at 0.4-0.5 times the speed of the
-/// "AMD EPYC" measured before it. "unknown CPU" when the text has no model name.
+/// EPYC (AVX2 on 128-bit units) ran the 10,000-strand runs at about half the speed of the "AMD
+/// EPYC" measured before it. "unknown CPU" when the text has no model name.
 std::string describeCpu(std::istream& cpuinfo);
 /// describeCpu of this machine's /proc/cpuinfo.
 std::string describeThisCpu();
