@@ -17,8 +17,6 @@ seconds=${WCH_CONTACT_SECONDS:-2}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 mkdir -p "$out" "$img"
-cpu="$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //') (family $(grep -m1 'cpu family' /proc/cpuinfo | sed 's/.*: //'), model $(grep -m1 -P '^model\t' /proc/cpuinfo | sed 's/.*: //'))"
-avx512=$(grep -q avx512f /proc/cpuinfo && echo yes || echo no)
 run() {  # name motion contact [extra...]
   local name=$1 motion=$2 contact=$3
   shift 3
@@ -33,9 +31,12 @@ for motion in still spin:rate_hz=1 nod shake; do
     run "${m}_$contact" "$motion" "$contact" "${frames[@]}"
   done
 done
-/usr/bin/python3 - "$tmp" "$out/hair_contact.csv" "$cpu" "$avx512" "$seconds" <<'PY'
+# The runner names the CPU (its JSON's cpu: name, family and model, avx512f).
+cpu=$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["cpu"])' \
+  "$tmp/still_off.json")
+/usr/bin/python3 - "$tmp" "$out/hair_contact.csv" "$cpu" "$seconds" <<'PY'
 import json, sys
-tmp, csv, cpu, avx512, seconds = sys.argv[1:]
+tmp, csv, cpu, seconds = sys.argv[1:]
 rows = []
 for m in ["still", "spin", "nod", "shake"]:
     for c in ["off", "on"]:
@@ -51,8 +52,7 @@ for m in ["still", "spin", "nod", "shake"]:
                      d["wall_s"] / d["sim_s"], contact_s / d["sim_s"],
                      (step_s - contact_s) / d["sim_s"], d["repairs"], d["max_strain"]])
 with open(csv, "w") as f:
-    f.write("# %s (avx512: %s), 1 thread, %s s, 200 strands x 32, saturation 0.8\n" %
-            (cpu, avx512, seconds))
+    f.write("# %s, 1 thread, %s s, 200 strands x 32, saturation 0.8\n" % (cpu, seconds))
     f.write("motion,contact,crossings,crossings_first_0.25s,crossings_after_0.25s,"
             "max_crossings_per_frame,touching_segments_end,"
             "head_distance_end_mm,head_distance_run_mm,hair_contacts_end,list_builds,"
@@ -63,7 +63,7 @@ print(open(csv).read())
 PY
 # Cost at 100, 1,000 and 10,000 strands (still head, wet; contact stage against the rest).
 {
-  echo "# $cpu (avx512: $avx512), 1 thread, still head, saturation 0.8"
+  echo "# $cpu, 1 thread, still head, saturation 0.8"
   echo "strands,radius_m,contact,sim_s,step_s_per_s,contact_s_per_s,other_stages_s_per_s,hair_contacts_end,list_builds,overflows"
 } > "$out/hair_contact_cost.csv"
 # The radius follows the strand density (a strand stands for a wisp of 1/strands of the hair):

@@ -25,16 +25,18 @@ namespace wet_curly_hair {
 namespace io {
 
 std::string describeCpu(std::istream& cpuinfo) {
+  auto trim = [](const std::string& text) {
+    const size_t first = text.find_first_not_of(" \t");
+    if (first == std::string::npos) return std::string();
+    return text.substr(first, text.find_last_not_of(" \t") - first + 1);
+  };
   std::string line, model, family, number;
   bool avx512 = false;
   while (std::getline(cpuinfo, line)) {
     // "key<tabs>: value": "model\t\t: 1" is the model number, "model name\t: ..." the name.
     const size_t colon = line.find(':');
     if (colon == std::string::npos) continue;
-    const size_t key_end = line.find_last_not_of(" \t", colon == 0 ? 0 : colon - 1);
-    const std::string key = colon == 0 ? std::string() : line.substr(0, key_end + 1);
-    const size_t value_start = line.find_first_not_of(" \t", colon + 1);
-    const std::string value = value_start == std::string::npos ? "" : line.substr(value_start);
+    const std::string key = trim(line.substr(0, colon)), value = trim(line.substr(colon + 1));
     if (key == "model name" && model.empty()) model = value;
     if (key == "cpu family" && family.empty()) family = value;
     if (key == "model" && number.empty()) number = value;
