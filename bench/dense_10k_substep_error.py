@@ -30,7 +30,8 @@ SCENE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config",
 
 
 def run(binary, out_dir, substep, args):
-    """One runner run of the scene at `substep`; returns its frames' strands and its RTF."""
+    """One runner run of the scene at `substep`; returns its frames' strands, its RTF and the CPU
+    the runner named (its JSON's `cpu`: name, family, model, avx512f)."""
     frames = os.path.join(out_dir, "substep_%g" % substep)
     os.makedirs(frames, exist_ok=True)
     extra = ["--set", "solver.obstacle.enabled=false"] if args.no_obstacle else []
@@ -39,8 +40,9 @@ def run(binary, out_dir, substep, args):
                     "--hair-stride", str(args.stride), "--json", frames + ".json"] + extra,
                    check=True, stdout=subprocess.DEVNULL)
     names = sorted(f for f in os.listdir(frames) if f.endswith(".hair"))
-    rtf = json.load(open(frames + ".json"))["realtime_factor"]
-    return [read_hair(os.path.join(frames, n)) for n in names], rtf
+    summary = json.load(open(frames + ".json"))
+    return ([read_hair(os.path.join(frames, n)) for n in names], summary["realtime_factor"],
+            summary["cpu"])
 
 
 def main():
@@ -52,12 +54,10 @@ def main():
     args = ap.parse_args()
     binary = os.path.join(args.build, "devel/lib/wet_curly_hair/wet_curly_hair_run")
     substeps = [5e-4, 1.0 / 360.0]  # the solver's default, and the scene's
-    cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo")
-                if l.startswith("model name")), "unknown CPU")
     with tempfile.TemporaryDirectory() as tmp:
         fine = min(substeps) / 8
-        ref, _ = run(binary, tmp, fine, args)
-        check, _ = run(binary, tmp, fine / 2, args)
+        ref, _, _ = run(binary, tmp, fine, args)
+        check, _, _ = run(binary, tmp, fine / 2, args)
         horizons = sorted(set(t for t in [0.25, 0.5, args.seconds] if t <= args.seconds))
 
         def errors(frames):
@@ -71,7 +71,7 @@ def main():
         print("reference %.4g s against %.4g s: %s (of the strand length)"
               % (fine, fine / 2, errors(check)))
         for h in substeps:
-            frames, rtf = run(binary, tmp, h, args)
+            frames, rtf, cpu = run(binary, tmp, h, args)
             print("midpoint %.4g s (%d substeps per frame): %s; RTF %.2f (%s)"
                   % (h, round((1.0 / 60.0) / h), errors(frames), rtf, cpu))
 
