@@ -148,10 +148,13 @@ WCH_INLINE V positivePart(V q) {
 
 /// The node kernel, unnormalised: K(q) = q (q^2 + ka q + kb) with q = h^2 - r^2 >= 0, the poly6
 /// kernel of eq. (10) with the lattice's correction (computeDisplayCohesionGrid). Scalars or
-/// vector lanes.
+/// vector lanes. In Horner's form, an add, a multiply-add and a multiply, where q (q q + ka q +
+/// kb) took two multiplies, a multiply-add and an add: every gather evaluates it at each of its
+/// ~36 rows, and on a CPU whose 256-bit operations take two 128-bit units (first-generation
+/// EPYC) the rows are bound by their count of vector operations (docs/physics.md §7.3).
 template <typename T, typename S>
 inline T nodeKernel(T q, S ka, S kb) {
-  return q * (q * q + ka * q + kb);
+  return ((q + ka) * q + kb) * q;
 }
 
 /// The rows (fixed ky, kz) that may hold nodes within h = kCells c of the point r (relative to
