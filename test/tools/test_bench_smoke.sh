@@ -150,5 +150,19 @@ check "bench_lattice_error reports both volumes' errors" \
 lattice_rc=$?
 check "bench_lattice_error refuses --frames 1 (got $lattice_rc)" \
   "[ $lattice_rc -eq 2 ] && grep -q 'frames F >= 2' $out/lattice_err"
+# The README's 10,000-strand runner commands (bench/targets_10k.py) on a small groom: both
+# targets run, every run is in the CSV under the runner's CPU line, and bad counts are refused.
+/usr/bin/python3 "$here/bench/targets_10k.py" --build "$build" --strands 24 --seconds 0.05 \
+  --runs 2 --out "$out/targets" > "$out/targets.txt" 2>&1
+targets_rc=$?
+check "targets_10k.py runs (got $targets_rc; $(tail -c 300 "$out/targets.txt"))" \
+  "[ $targets_rc -eq 0 ]"
+check "targets_10k.py prints both targets' medians and writes every run" \
+  "grep -q '^simulated_theta_240 .*RTF median' $out/targets.txt && grep -q '^defaults_follow_ratio_10 .*RTF median' $out/targets.txt && [ \$(grep -c ',[12],' $out/targets/targets_10k.csv) -eq 4 ] && head -1 $out/targets/targets_10k.csv | grep -q 'avx512f'"
+/usr/bin/python3 "$here/bench/targets_10k.py" --build "$build" --runs 0 > /dev/null \
+  2> "$out/targets_err"
+targets_rc=$?
+check "targets_10k.py refuses --runs 0 (got $targets_rc)" \
+  "[ $targets_rc -eq 2 ] && grep -q 'at least 1' $out/targets_err"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
