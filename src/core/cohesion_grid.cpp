@@ -51,7 +51,8 @@ inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
 
 /// Computed from the position by every pass over all particles (a few operations, where storing
 /// them and reading them back in three passes moved 9 doubles per particle through memory): the
-/// same values to the bit as the gathered strands' stored copies (CohesionNodeGrid::rx..tz).
+/// same values to the bit as the gathered strands' cells formed from their stored coordinates
+/// (CohesionNodeGrid::rx.., storedCellNode).
 /// The splat tells its threads' layers apart by nodeCoordinate's z alone: the cell here is
 /// formed by the same function, so both agree on every particle's layer.
 inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
@@ -63,6 +64,16 @@ inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
     c.t[a] = f - c.k[a];
   }
   return c;
+}
+
+/// The lowest node and the fraction along one axis of a gathered particle's cell, from its
+/// stored coordinate relative to the origin (CohesionNodeGrid::rx..): nodeCoordinate's
+/// difference is that coordinate to the bit, so these are cellPosition's values, which the splat
+/// used, without storing them (6 doubles per particle written and read back).
+WCH_INLINE double storedCellNode(const Lattice& L, double r) { return std::floor(r * L.inv_c); }
+WCH_INLINE double storedCellFraction(const Lattice& L, double r) {
+  const double f = r * L.inv_c;
+  return f - std::floor(f);
 }
 
 /// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
@@ -479,8 +490,9 @@ struct NodeVolumes {
     if constexpr (!kNodeVolumes) {
       for (int k = 0; k < 8; ++k) factor[k] = Real(1);
     } else {
-      const int64_t n = L.index(static_cast<int64_t>(g.kx[j]), static_cast<int64_t>(g.ky[j]),
-                                static_cast<int64_t>(g.kz[j]));
+      const int64_t n = L.index(static_cast<int64_t>(storedCellNode(L, g.rx[j])),
+                                static_cast<int64_t>(storedCellNode(L, g.ry[j])),
+                                static_cast<int64_t>(storedCellNode(L, g.rz[j])));
       const int64_t up = L.nx * L.ny;
       const int64_t offset[8] = {0, 1, L.nx, L.nx + 1, up, up + 1, up + L.nx, up + L.nx + 1};
       for (int k = 0; k < 8; ++k)
@@ -500,25 +512,21 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const
   const double* __restrict rx = g.rx.data();
   const double* __restrict ry = g.ry.data();
   const double* __restrict rz = g.rz.data();
-  const double* __restrict kx = g.kx.data();
-  const double* __restrict ky = g.ky.data();
-  const double* __restrict kz = g.kz.data();
-  const double* __restrict tx = g.tx.data();
-  const double* __restrict ty = g.ty.data();
-  const double* __restrict tz = g.tz.data();
   const double* __restrict vol = g.volume.data();
   const double* __restrict wet = g.wet_share.data();
   const double xi = rx[i], yi = ry[i], zi = rz[i], c = L.c, ka = L.ka, kb = L.kb;
   double w_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
 #pragma omp simd reduction(+ : w_sum, px, py, pz)
   for (int j = begin; j < end; ++j) {
-    const double dx0 = kx[j] * c - xi, dx1 = (kx[j] + 1.0) * c - xi;
-    const double dy0 = ky[j] * c - yi, dy1 = (ky[j] + 1.0) * c - yi;
-    const double dz0 = kz[j] * c - zi, dz1 = (kz[j] + 1.0) * c - zi;
+    const double fx = rx[j] * L.inv_c, fy = ry[j] * L.inv_c, fz = rz[j] * L.inv_c;
+    const double kx = std::floor(fx), ky = std::floor(fy), kz = std::floor(fz);
+    const double tx = fx - kx, ty = fy - ky, tz = fz - kz;  // storedCellNode, storedCellFraction
+    const double dx0 = kx * c - xi, dx1 = (kx + 1.0) * c - xi;
+    const double dy0 = ky * c - yi, dy1 = (ky + 1.0) * c - yi;
+    const double dz0 = kz * c - zi, dz1 = (kz + 1.0) * c - zi;
     const double x2[2] = {dx0 * dx0, dx1 * dx1}, y2[2] = {dy0 * dy0, dy1 * dy1},
                  z2[2] = {dz0 * dz0, dz1 * dz1};
-    const double wx[2] = {1.0 - tx[j], tx[j]}, wy[2] = {1.0 - ty[j], ty[j]},
-                 wz[2] = {1.0 - tz[j], tz[j]};
+    const double wx[2] = {1.0 - tx, tx}, wy[2] = {1.0 - ty, ty}, wz[2] = {1.0 - tz, tz};
     double corner[8];
     nv.cornerFactors<kNodeVolumes>(L, g, j, corner);
     double wt = 0.0;
@@ -925,27 +933,21 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const bool at_guides = cfg.gather_at == "guides" && guide_strands > 0;
   const int gathered = at_guides ? static_cast<int>(model.strandBegin(guide_strands)) : n;
   const int gathered_strands = at_guides ? guide_strands : model.strandCount();
-  // The gathered strands' particles' positions on the lattice, cells and trilinear fractions,
-  // stored for their gathers and own-strand shares (the passes over every particle compute them
-  // from the positions: cellPosition).
+  // The gathered strands' particles' positions on the lattice, stored for their gathers and
+  // own-strand shares, with their cells and trilinear fractions in float for the float shares
+  // (the passes over every particle compute them from the positions: cellPosition).
   parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
     const CellPosition cell = cellPosition(L, p[j]);
     g.rx[j] = cell.r.x();
     g.ry[j] = cell.r.y();
     g.rz[j] = cell.r.z();
-    g.kx[j] = cell.k[0];
-    g.ky[j] = cell.k[1];
-    g.kz[j] = cell.k[2];
-    g.tx[j] = cell.t[0];
-    g.ty[j] = cell.t[1];
-    g.tz[j] = cell.t[2];
     if (!single) return;  // the float copies are read by the float own-strand shares only
-    g.kx_f[j] = static_cast<float>(g.kx[j]);
-    g.ky_f[j] = static_cast<float>(g.ky[j]);
-    g.kz_f[j] = static_cast<float>(g.kz[j]);
-    g.tx_f[j] = static_cast<float>(g.tx[j]);
-    g.ty_f[j] = static_cast<float>(g.ty[j]);
-    g.tz_f[j] = static_cast<float>(g.tz[j]);
+    g.kx_f[j] = static_cast<float>(cell.k[0]);
+    g.ky_f[j] = static_cast<float>(cell.k[1]);
+    g.kz_f[j] = static_cast<float>(cell.k[2]);
+    g.tx_f[j] = static_cast<float>(cell.t[0]);
+    g.ty_f[j] = static_cast<float>(cell.t[1]);
+    g.tz_f[j] = static_cast<float>(cell.t[2]);
   });
 
   const NodeVolumes volumes =

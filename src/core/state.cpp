@@ -49,8 +49,7 @@ void CohesionNodeGrid::resize(size_t nodes, int particles) {
   for (std::vector<float>* v : {&scalar_f, &wet_volume_f, &qx_f, &qy_f, &qz_f})
     v->assign(padded, 0.0f);
   const size_t per_particle = nodes > 0 ? static_cast<size_t>(particles) : 0;
-  for (std::vector<double>* v : {&volume, &wet_share, &rx, &ry, &rz, &kx, &ky, &kz, &tx, &ty, &tz})
-    v->assign(per_particle, 0.0);
+  for (std::vector<double>* v : {&volume, &wet_share, &rx, &ry, &rz}) v->assign(per_particle, 0.0);
   const size_t padded_particles = nodes > 0 ? per_particle + kCohesionFloatLanes : 0;
   for (std::vector<float>* v : {&kx_f, &ky_f, &kz_f, &tx_f, &ty_f, &tz_f, &volume_f, &wet_share_f,
                                 &own_weight_f, &own_px_f, &own_py_f, &own_pz_f})

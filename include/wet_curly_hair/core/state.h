@@ -134,11 +134,12 @@ struct CohesionNodeGrid {
   std::vector<double> wet_share;
   // The gathered strands' particles only (the passes over every particle compute these from
   // the positions):
-  std::vector<double> rx, ry, rz;  ///< position relative to the lattice origin, m.
-  std::vector<double> kx, ky, kz;  ///< lowest node of the particle's cell (integers).
-  std::vector<double> tx, ty, tz;  ///< trilinear fractions in the cell, [0, 1).
-  /// Single-precision copies of kx.., tx.., volume and wet_share, read by the float own-strand
-  /// sums (in lattice units: cell indices are exact in float, fractions lose nothing that matters);
+  /// Position relative to the lattice origin, m: the cell and its fractions follow from it by
+  /// the operations that formed them (the cohesion lattice's storedCell).
+  std::vector<double> rx, ry, rz;
+  /// Single-precision lowest node of the particle's cell (kx_f..) and trilinear fractions in it
+  /// (tx_f..), and copies of volume and wet_share, read by the float own-strand sums (in lattice
+  /// units: cell indices are exact in float, fractions lose nothing that matters);
   /// written for the gathered strands' particles only (with gather_at "guides", the guides').
   /// Padded by kCohesionFloatLanes particles (zeros).
   std::vector<float> kx_f, ky_f, kz_f, tx_f, ty_f, tz_f, volume_f, wet_share_f;
