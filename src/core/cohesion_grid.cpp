@@ -52,7 +52,7 @@ inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
 /// Computed from the position by every pass over all particles (a few operations, where storing
 /// them and reading them back in three passes moved 9 doubles per particle through memory): the
 /// same values to the bit as the gathered strands' cells formed from their stored coordinates
-/// (CohesionNodeGrid::rx.., storedCellNode).
+/// (CohesionNodeGrid::rx.., storedCellAxis).
 /// The splat tells its threads' layers apart by nodeCoordinate's z alone: the cell here is
 /// formed by the same function, so both agree on every particle's layer.
 inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
@@ -66,14 +66,17 @@ inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
   return c;
 }
 
-/// The lowest node and the fraction along one axis of a gathered particle's cell, from its
-/// stored coordinate relative to the origin (CohesionNodeGrid::rx..): nodeCoordinate's
+/// The lowest node of a gathered particle's cell along one axis, and its fraction there, from
+/// its stored coordinate relative to the origin (CohesionNodeGrid::rx..): nodeCoordinate's
 /// difference is that coordinate to the bit, so these are cellPosition's values, which the splat
 /// used, without storing them (6 doubles per particle written and read back).
-WCH_INLINE double storedCellNode(const Lattice& L, double r) { return std::floor(r * L.inv_c); }
-WCH_INLINE double storedCellFraction(const Lattice& L, double r) {
+struct StoredCellAxis {
+  double node, fraction;
+};
+WCH_INLINE StoredCellAxis storedCellAxis(const Lattice& L, double r) {
   const double f = r * L.inv_c;
-  return f - std::floor(f);
+  const double node = std::floor(f);
+  return StoredCellAxis{node, f - node};
 }
 
 /// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
@@ -490,9 +493,9 @@ struct NodeVolumes {
     if constexpr (!kNodeVolumes) {
       for (int k = 0; k < 8; ++k) factor[k] = Real(1);
     } else {
-      const int64_t n = L.index(static_cast<int64_t>(storedCellNode(L, g.rx[j])),
-                                static_cast<int64_t>(storedCellNode(L, g.ry[j])),
-                                static_cast<int64_t>(storedCellNode(L, g.rz[j])));
+      const int64_t n = L.index(static_cast<int64_t>(storedCellAxis(L, g.rx[j]).node),
+                                static_cast<int64_t>(storedCellAxis(L, g.ry[j]).node),
+                                static_cast<int64_t>(storedCellAxis(L, g.rz[j]).node));
       const int64_t up = L.nx * L.ny;
       const int64_t offset[8] = {0, 1, L.nx, L.nx + 1, up, up + 1, up + L.nx, up + L.nx + 1};
       for (int k = 0; k < 8; ++k)
@@ -518,15 +521,15 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const
   double w_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
 #pragma omp simd reduction(+ : w_sum, px, py, pz)
   for (int j = begin; j < end; ++j) {
-    const double fx = rx[j] * L.inv_c, fy = ry[j] * L.inv_c, fz = rz[j] * L.inv_c;
-    const double kx = std::floor(fx), ky = std::floor(fy), kz = std::floor(fz);
-    const double tx = fx - kx, ty = fy - ky, tz = fz - kz;  // storedCellNode, storedCellFraction
-    const double dx0 = kx * c - xi, dx1 = (kx + 1.0) * c - xi;
-    const double dy0 = ky * c - yi, dy1 = (ky + 1.0) * c - yi;
-    const double dz0 = kz * c - zi, dz1 = (kz + 1.0) * c - zi;
+    const StoredCellAxis cx = storedCellAxis(L, rx[j]), cy = storedCellAxis(L, ry[j]),
+                         cz = storedCellAxis(L, rz[j]);
+    const double dx0 = cx.node * c - xi, dx1 = (cx.node + 1.0) * c - xi;
+    const double dy0 = cy.node * c - yi, dy1 = (cy.node + 1.0) * c - yi;
+    const double dz0 = cz.node * c - zi, dz1 = (cz.node + 1.0) * c - zi;
     const double x2[2] = {dx0 * dx0, dx1 * dx1}, y2[2] = {dy0 * dy0, dy1 * dy1},
                  z2[2] = {dz0 * dz0, dz1 * dz1};
-    const double wx[2] = {1.0 - tx, tx}, wy[2] = {1.0 - ty, ty}, wz[2] = {1.0 - tz, tz};
+    const double wx[2] = {1.0 - cx.fraction, cx.fraction}, wy[2] = {1.0 - cy.fraction, cy.fraction},
+                 wz[2] = {1.0 - cz.fraction, cz.fraction};
     double corner[8];
     nv.cornerFactors<kNodeVolumes>(L, g, j, corner);
     double wt = 0.0;
