@@ -49,34 +49,33 @@ inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
   return (p[axis] - L.origin[axis]) * L.inv_c;
 }
 
+/// The lowest node of a cell along one axis, and the fraction there, from a coordinate r
+/// relative to the lattice origin. The one place the lattice's cells are formed: cellPosition for
+/// every pass over all particles, and the gathered particles' double own-strand shares and node
+/// volumes from their stored coordinates (CohesionNodeGrid::rx..), which are cellPosition's r to
+/// the bit, so every pass agrees with the splat on every cell without storing them.
+struct CellAxis {
+  double node, fraction;
+};
+WCH_INLINE CellAxis cellAxis(const Lattice& L, double r) {
+  const double f = r * L.inv_c;
+  const double node = std::floor(f);
+  return CellAxis{node, f - node};
+}
+
 /// Computed from the position by every pass over all particles (a few operations, where storing
-/// them and reading them back in three passes moved 9 doubles per particle through memory): the
-/// same values to the bit as the gathered strands' cells formed from their stored coordinates
-/// (CohesionNodeGrid::rx.., storedCellAxis).
-/// The splat tells its threads' layers apart by nodeCoordinate's z alone: the cell here is
-/// formed by the same function, so both agree on every particle's layer.
+/// them and reading them back in three passes moved 9 doubles per particle through memory).
+/// The splat tells its threads' layers apart by nodeCoordinate's z alone, the same r * inv_c:
+/// both agree on every particle's layer.
 inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
   CellPosition c;
   c.r = p - L.origin;
   for (int a = 0; a < 3; ++a) {
-    const double f = nodeCoordinate(L, p, a);
-    c.k[a] = std::floor(f);
-    c.t[a] = f - c.k[a];
+    const CellAxis axis = cellAxis(L, c.r[a]);
+    c.k[a] = axis.node;
+    c.t[a] = axis.fraction;
   }
   return c;
-}
-
-/// The lowest node of a gathered particle's cell along one axis, and its fraction there, from
-/// its stored coordinate relative to the origin (CohesionNodeGrid::rx..): nodeCoordinate's
-/// difference is that coordinate to the bit, so these are cellPosition's values, which the splat
-/// used, without storing them (6 doubles per particle written and read back).
-struct StoredCellAxis {
-  double node, fraction;
-};
-WCH_INLINE StoredCellAxis storedCellAxis(const Lattice& L, double r) {
-  const double f = r * L.inv_c;
-  const double node = std::floor(f);
-  return StoredCellAxis{node, f - node};
 }
 
 /// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
@@ -493,9 +492,9 @@ struct NodeVolumes {
     if constexpr (!kNodeVolumes) {
       for (int k = 0; k < 8; ++k) factor[k] = Real(1);
     } else {
-      const int64_t n = L.index(static_cast<int64_t>(storedCellAxis(L, g.rx[j]).node),
-                                static_cast<int64_t>(storedCellAxis(L, g.ry[j]).node),
-                                static_cast<int64_t>(storedCellAxis(L, g.rz[j]).node));
+      const int64_t n = L.index(static_cast<int64_t>(cellAxis(L, g.rx[j]).node),
+                                static_cast<int64_t>(cellAxis(L, g.ry[j]).node),
+                                static_cast<int64_t>(cellAxis(L, g.rz[j]).node));
       const int64_t up = L.nx * L.ny;
       const int64_t offset[8] = {0, 1, L.nx, L.nx + 1, up, up + 1, up + L.nx, up + L.nx + 1};
       for (int k = 0; k < 8; ++k)
@@ -521,8 +520,7 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const
   double w_sum = 0.0, px = 0.0, py = 0.0, pz = 0.0;
 #pragma omp simd reduction(+ : w_sum, px, py, pz)
   for (int j = begin; j < end; ++j) {
-    const StoredCellAxis cx = storedCellAxis(L, rx[j]), cy = storedCellAxis(L, ry[j]),
-                         cz = storedCellAxis(L, rz[j]);
+    const CellAxis cx = cellAxis(L, rx[j]), cy = cellAxis(L, ry[j]), cz = cellAxis(L, rz[j]);
     const double dx0 = cx.node * c - xi, dx1 = (cx.node + 1.0) * c - xi;
     const double dy0 = cy.node * c - yi, dy1 = (cy.node + 1.0) * c - yi;
     const double dz0 = cz.node * c - zi, dz1 = (cz.node + 1.0) * c - zi;

@@ -135,7 +135,7 @@ struct CohesionNodeGrid {
   // The gathered strands' particles only (the passes over every particle compute these from
   // the positions):
   /// Position relative to the lattice origin, m: the cell and its fractions follow from it by
-  /// the operations that formed them (the cohesion lattice's storedCellAxis).
+  /// the operations that formed them (the cohesion lattice's cellAxis).
   std::vector<double> rx, ry, rz;
   /// Single-precision lowest node of the particle's cell (kx_f..) and trilinear fractions in it
   /// (tx_f..), and copies of volume and wet_share, read by the float own-strand sums (in lattice
