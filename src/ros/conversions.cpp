@@ -5,9 +5,31 @@
 
 namespace wet_curly_hair {
 
+namespace {
+
+/// out[k] = float(in[k]) for k in [0, count), on `threads` threads: the frame's conversion reads
+/// 18 MB of doubles and writes 9 MB of floats at 10,000 strands, bound by memory, which one core
+/// does not saturate on the 2-core machines measured (docs/ros.md).
+/// A plain loop on one thread: libgomp allocates a team for every parallel region.
+void toFloats(const double* __restrict in, size_t count, int threads, float* __restrict out) {
+  const int64_t n = static_cast<int64_t>(count);
+  if (threads <= 1) {
+    for (int64_t k = 0; k < n; ++k) out[k] = static_cast<float>(in[k]);
+    return;
+  }
+#pragma omp parallel for num_threads(threads) schedule(static)
+  for (int64_t k = 0; k < n; ++k) out[k] = static_cast<float>(in[k]);
+}
+
+/// The 3 n doubles of a Vec3List end to end (Eigen's Vector3d has no padding).
+const double* coordinates(const Vec3List& v) { return v.empty() ? nullptr : v.data()->data(); }
+static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
+
+}  // namespace
+
 void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with_wet_positions,
                        const std_msgs::Header& header, uint64_t step, uint32_t reset_count,
-                       const Pose& head_pose, Strands* msg) {
+                       const Pose& head_pose, Strands* msg, int threads) {
   const size_t n = state.position.size();
   msg->header = header;
   msg->step = step;
@@ -17,21 +39,11 @@ void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with
   msg->guide_strands = static_cast<uint32_t>(model.simulatedStrandCount());
   msg->positions.resize(3 * n);
   msg->saturation.resize(n);
-  for (size_t i = 0; i < n; ++i) {
-    const Vec3& p = state.position[i];
-    msg->positions[3 * i + 0] = static_cast<float>(p.x());
-    msg->positions[3 * i + 1] = static_cast<float>(p.y());
-    msg->positions[3 * i + 2] = static_cast<float>(p.z());
-    msg->saturation[i] = static_cast<float>(state.saturation[i]);
-  }
+  toFloats(coordinates(state.position), 3 * n, threads, msg->positions.data());
+  toFloats(state.saturation.data(), n, threads, msg->saturation.data());
   if (with_wet_positions && state.wet_position.size() == n) {
     msg->wet_positions.resize(3 * n);
-    for (size_t i = 0; i < n; ++i) {
-      const Vec3& p = state.wet_position[i];
-      msg->wet_positions[3 * i + 0] = static_cast<float>(p.x());
-      msg->wet_positions[3 * i + 1] = static_cast<float>(p.y());
-      msg->wet_positions[3 * i + 2] = static_cast<float>(p.z());
-    }
+    toFloats(coordinates(state.wet_position), 3 * n, threads, msg->wet_positions.data());
   } else {
     msg->wet_positions.clear();
   }

@@ -435,7 +435,8 @@ void WetCurlyHairNode::publishStrandsLocked() {
   auto t0 = Clock::now();
   const boost::shared_ptr<Strands> frame = freeStrandsFrame();
   stateToStrandsMsg(model_, state_, scene_.solver.cohesion.mode != "off", header, step_,
-                    reset_count_, head_pose_, frame.get());
+                    reset_count_, head_pose_, frame.get(),
+                    scene_.solver.integrator.resolvedThreads());
   tick_convert_s_ += wallSince(t0);
   t0 = Clock::now();
   strands_pub_.publish(boost::shared_ptr<const Strands>(frame));

@@ -32,10 +32,10 @@ Rgb colorOf(double saturation) {
   return c;
 }
 
-HairModel smallModel() {
+HairModel smallModel(int strands = 5, int particles = 7) {
   io::SceneConfig scene = io::builtinScene();
-  scene.groom.strands = 5;
-  scene.groom.particles = 7;
+  scene.groom.strands = strands;
+  scene.groom.particles = particles;
   HairModel model;
   std::string why;
   EXPECT_TRUE(io::buildSceneModel(scene, &model, &why)) << why;
@@ -66,6 +66,36 @@ TEST(Conversions, StrandsMessageSizesAndValues) {
   EXPECT_DOUBLE_EQ(m.head_pose.position.z, 1.5);
   stateToStrandsMsg(model, state, false, h, 8, 2, head, &m);  // cohesion off: no wet positions
   EXPECT_TRUE(m.wet_positions.empty());
+}
+
+TEST(Conversions, StrandsMessageIsEveryValueRoundedToFloatOnAnyThreadCount) {
+  // Each array is converted element by element, split among threads: every coordinate,
+  // saturation and display coordinate of every particle, the first and last included, is its
+  // double rounded to float, whatever the thread count (and a count above the elements').
+  const HairModel model = smallModel(37, 9);
+  HairState state = makeState(model, Pose(), Twist());
+  const size_t n = state.position.size();
+  for (size_t i = 0; i < n; ++i) {
+    state.position[i] += Vec3(1e-3 * i, -2e-3 * i, 0.1 / (i + 1));
+    state.wet_position[i] = state.position[i] + Vec3(1e-4, 2e-4 * i, -3e-4);
+    state.saturation[i] = double(i % 10) / 9.0 + 1e-9;
+  }
+  for (int threads : {1, 2, 3, 1000}) {
+    Strands m;
+    stateToStrandsMsg(model, state, true, std_msgs::Header(), 1, 0, Pose(), &m, threads);
+    ASSERT_EQ(m.positions.size(), 3 * n);
+    ASSERT_EQ(m.wet_positions.size(), 3 * n);
+    ASSERT_EQ(m.saturation.size(), n);
+    for (size_t i = 0; i < n; ++i) {
+      ASSERT_EQ(m.saturation[i], static_cast<float>(state.saturation[i])) << threads << " " << i;
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_EQ(m.positions[3 * i + a], static_cast<float>(state.position[i][a]))
+            << threads << " threads, particle " << i << " axis " << a;
+        ASSERT_EQ(m.wet_positions[3 * i + a], static_cast<float>(state.wet_position[i][a]))
+            << threads << " threads, particle " << i << " axis " << a;
+      }
+    }
+  }
 }
 
 TEST(Conversions, StrandsMessageSaysWhichStrandsAreGuides) {

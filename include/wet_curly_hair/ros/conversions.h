@@ -26,10 +26,11 @@
 namespace wet_curly_hair {
 
 /// Fills *msg from the state (positions and saturation as float32; wet_positions only when
-/// `with_wet_positions`). Reuses the message's storage: no allocation once sized.
+/// `with_wet_positions`), the arrays converted on `threads` threads (the same values for any
+/// count). Reuses the message's storage: no allocation once sized.
 void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with_wet_positions,
                        const std_msgs::Header& header, uint64_t step, uint32_t reset_count,
-                       const Pose& head_pose, Strands* msg);
+                       const Pose& head_pose, Strands* msg, int threads = 1);
 
 /// Saturation shown as colour: dry is a light tan, fully wet a deep blue (linear blend, s
 /// clamped to [0, 1], non-finite taken as 0). rgb in [0, 1].
