@@ -34,6 +34,9 @@ struct Lattice {
   /// The node kernel of sums convolved on the lattice and interpolated to the particle
   /// (convolveNodes): two trilinear interpolations, twice the correction.
   double ka_both = 0.0, kb_both = 0.0;
+  /// The node the wet sums take their positions from, relative to the origin: the lattice's
+  /// middle node (P_n = sum_j t_jn V_j sigma_j (p_j - x_ref), WetNodes).
+  Vec3 reference = Vec3::Zero();
   int64_t index(int64_t kx, int64_t ky, int64_t kz) const { return (kz * ny + ky) * nx + kx; }
 };
 
@@ -172,9 +175,9 @@ inline T nodeKernel(T q, S ka, S kb) {
 
 /// The rows (fixed ky, kz) that may hold nodes within h = kCells c of the point r (relative to
 /// the origin) are 2 kCells nodes wide: kx0 .. kx0 + 2 kCells - 1 holds every node of the row
-/// within h (the others get q = 0). Fixed-width rows need no per-row bounds, and the offsets
-/// dx of a row's nodes are the same for every row; a row is read as whole vectors of 8 lanes,
-/// the lanes past its width given dx^2 = 4 h^2 (q = 0, so the node they read, which the
+/// within h (the others get q = 0). Fixed-width rows need no per-row bounds, and the squared
+/// offsets dx^2 of a row's nodes are the same for every row; a row is read as whole vectors of 8
+/// lanes, the lanes past its width given dx^2 = 4 h^2 (q = 0, so the node they read, which the
 /// lattice's padding keeps inside the arrays, counts nothing). The lattice margin keeps every
 /// row inside the lattice. Offsets are computed in double and rounded to Real once.
 template <int kCells, typename Real>
@@ -186,9 +189,9 @@ struct RowWindow {
   /// are formed in registers too (setOffsetsInRegisters).
   static constexpr bool kOneFloatRegister = std::is_same<Real, float>::value && kChunks == 1;
   int64_t kx0, ky0, kz0;
-  V dx[kChunks], dx2[kChunks];
+  V dx2[kChunks];
   /// Per row and per layer (the first kWidth; one register's worth of room).
-  Real dy[kChunks * kLanes], dy2[kChunks * kLanes], dz[kChunks * kLanes], dz2[kChunks * kLanes];
+  Real dy2[kChunks * kLanes], dz2[kChunks * kLanes];
   RowWindow(const Lattice& L, const Vec3& r, double h2) {
     kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - kCells + 1;
     ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - kCells + 1;
@@ -199,42 +202,32 @@ struct RowWindow {
     }
     for (int j = 0; j < kChunks * kLanes; ++j) {
       const double d = double(kx0 + j) * L.c - r.x();
-      dx[j / kLanes][j % kLanes] = j < kWidth ? static_cast<Real>(d) : Real(0);
       dx2[j / kLanes][j % kLanes] = static_cast<Real>(j < kWidth ? d * d : 4.0 * h2);
     }
     for (int j = 0; j < kWidth; ++j) {
       const double ey = double(ky0 + j) * L.c - r.y(), ez = double(kz0 + j) * L.c - r.z();
-      dy[j] = static_cast<Real>(ey);
       dy2[j] = static_cast<Real>(ey * ey);
-      dz[j] = static_cast<Real>(ez);
       dz2[j] = static_cast<Real>(ez * ez);
     }
   }
-  /// The constructor's offsets, the same values, as two registers of 4 doubles per axis rounded
-  /// to one of 8 floats: the lane by lane form cost about 130 scalar instructions per gather,
-  /// a sixth of the rows' (the x lanes past the row's width as there).
+  /// The constructor's squared offsets, the same values, as two registers of 4 doubles per axis
+  /// rounded to one of 8 floats: the lane by lane form cost about 130 scalar instructions per
+  /// gather, a sixth of the rows' (the x lanes past the row's width as there).
   void setOffsetsInRegisters(const Lattice& L, const Vec3& r, double h2) {
     typedef double Quad __attribute__((vector_size(32)));
     typedef float HalfV __attribute__((vector_size(16)));
     const Quad low = {0.0, 1.0, 2.0, 3.0}, high = {4.0, 5.0, 6.0, 7.0};
-    auto offsets = [&](int64_t k0, double coordinate, V* d, V* d2) {
+    auto squares = [&](int64_t k0, double coordinate) {
       const Quad e0 = (double(k0) + low) * L.c - coordinate;
       const Quad e1 = (double(k0) + high) * L.c - coordinate;
-      *d = concatLanes<4>(__builtin_convertvector(e0, HalfV), __builtin_convertvector(e1, HalfV));
-      *d2 = concatLanes<4>(__builtin_convertvector(e0 * e0, HalfV),
-                           __builtin_convertvector(e1 * e1, HalfV));
+      return concatLanes<4>(__builtin_convertvector(e0 * e0, HalfV),
+                            __builtin_convertvector(e1 * e1, HalfV));
     };
-    V ey, ey2, ez, ez2;
-    offsets(kx0, r.x(), &dx[0], &dx2[0]);
-    offsets(ky0, r.y(), &ey, &ey2);
-    offsets(kz0, r.z(), &ez, &ez2);
+    const V ey2 = squares(ky0, r.y()), ez2 = squares(kz0, r.z());
     const V lane = {0, 1, 2, 3, 4, 5, 6, 7};
     const auto in_row = lane < V{} + Real(kWidth);
-    dx[0] = in_row ? dx[0] : V{};
-    dx2[0] = in_row ? dx2[0] : V{} + static_cast<Real>(4.0 * h2);
-    std::memcpy(dy, &ey, sizeof ey);
+    dx2[0] = in_row ? squares(kx0, r.x()) : V{} + static_cast<Real>(4.0 * h2);
     std::memcpy(dy2, &ey2, sizeof ey2);
-    std::memcpy(dz, &ez, sizeof ez);
     std::memcpy(dz2, &ez2, sizeof ez2);
   }
   /// Calls row(first node, a, b) for every row (ky0 + b, kz0 + a) with a node within h, layer by
@@ -291,34 +284,27 @@ struct PackedRowWindow {
   typedef typename FloatLanes<kVectorLanes>::type V;
   typedef typename FloatLanes<kPadded>::type Row;
   int64_t kx0, ky0, kz0;
-  V dx, dx2;                    ///< per lane: the node's x offset (lane % kPadded)
-  V dy[kGroups], dy2[kGroups];  ///< per lane: the row's y offset (row g kRows + lane / kPadded)
-  float dz[kWidth], dz2[kWidth];
+  V dx2;           ///< per lane: the node's squared x offset (lane % kPadded)
+  V dy2[kGroups];  ///< per lane: the row's squared y offset (row g kRows + lane / kPadded)
+  float dz2[kWidth];
   PackedRowWindow(const Lattice& L, const Vec3& r, double h2) {
     kx0 = static_cast<int64_t>(std::floor(r.x() * L.inv_c)) - kCells + 1;
     ky0 = static_cast<int64_t>(std::floor(r.y() * L.inv_c)) - kCells + 1;
     kz0 = static_cast<int64_t>(std::floor(r.z() * L.inv_c)) - kCells + 1;
-    // One row's x offsets, repeated in every row of the register.
-    Row row_dx, row_dx2;
+    // One row's squared x offsets, repeated in every row of the register.
+    Row row_dx2;
     for (int j = 0; j < kPadded; ++j) {
       const double d = double(kx0 + j) * L.c - r.x();
-      row_dx[j] = j < kWidth ? static_cast<float>(d) : 0.0f;
       row_dx2[j] = static_cast<float>(j < kWidth ? d * d : 4.0 * h2);
     }
-    dx = repeatRow(row_dx);
     dx2 = repeatRow(row_dx2);
-    float row_dy[kWidth], row_dy2[kWidth];
+    float row_dy2[kWidth];
     for (int j = 0; j < kWidth; ++j) {
       const double ey = double(ky0 + j) * L.c - r.y(), ez = double(kz0 + j) * L.c - r.z();
-      row_dy[j] = static_cast<float>(ey);
       row_dy2[j] = static_cast<float>(ey * ey);
-      dz[j] = static_cast<float>(ez);
       dz2[j] = static_cast<float>(ez * ez);
     }
-    for (int g = 0; g < kGroups; ++g) {
-      dy[g] = rowsOf(row_dy + g * kRows);
-      dy2[g] = rowsOf(row_dy2 + g * kRows);
-    }
+    for (int g = 0; g < kGroups; ++g) dy2[g] = rowsOf(row_dy2 + g * kRows);
   }
   /// A row's lanes repeated kRows times.
   static V repeatRow(Row r) {
@@ -354,7 +340,7 @@ struct PackedRowWindow {
                                       concatLanes<kPadded>(r[2], r[3]));
     }
   }
-  /// Calls group(first node, g, dz, dz^2) for every group of the window, unrolled: a group beyond
+  /// Calls group(first node, g, dz^2) for every group of the window, unrolled: a group beyond
   /// h has q = 0 at every node. Skipping those (a quarter at 3 nodes per radius) mispredicted
   /// enough to cost more than they do: measured with skipping, the density gather 10 % and the
   /// wet gather 11 % slower at 3 nodes per radius, 15 % and 7 % at 4 (1,000 strands, AVX-512).
@@ -364,7 +350,7 @@ struct PackedRowWindow {
     for (int a = 0; a < kWidth; ++a) {
       const int64_t layer = L.index(kx0, ky0, kz0 + a);
 #pragma GCC unroll 8
-      for (int g = 0; g < kGroups; ++g) group(layer + g * kRows * L.nx, g, dz[a], dz2[a]);
+      for (int g = 0; g < kGroups; ++g) group(layer + g * kRows * L.nx, g, dz2[a]);
     }
   }
   /// The lanes' sum in double, pairwise in vectors (a sequential sum of the 16 lanes cost a third
@@ -380,65 +366,70 @@ template <int kCells>
 constexpr bool kPackedRows = kCohesionFloatLanes / paddedRowWidth(2 * kCells) >= 2 &&
                              (2 * kCells) % (kCohesionFloatLanes / paddedRowWidth(2 * kCells)) == 0;
 
-/// Node arrays of pass 2 (eq. 10 over all strands).
+/// Node arrays of pass 2 (eq. 10 over all strands). The positions are taken from one node for
+/// the whole lattice, x_ref (Lattice::reference), not from each node: eq. (10)'s pull at p_i,
+/// sum_n W_in sum_j t_jn V_j sigma_j (p_j - p_i), is then sum_n W_in P_n - (p_i - x_ref) sum_n
+/// W_in S_n, two sums where Q_n = V sigma (p - x_n) needed the node's offset from p_i at every
+/// node (wetSums).
 template <typename Real>
 struct WetNodes {
   const Real* volume;      ///< V
   const Real* wet_volume;  ///< S = V sigma
-  const Real* qx;          ///< Q = V sigma (p - x_n)
+  const Real* qx;          ///< P = V sigma (p - x_ref)
   const Real* qy;
   const Real* qz;
 };
 
 struct WetSums {
   double weight = 0.0;       ///< sum_n W_in V_n
-  Vec3 pull = Vec3::Zero();  ///< sum_n W_in (Q_n + S_n (x_n - p_i))
+  Vec3 pull = Vec3::Zero();  ///< sum_n W_in sum_j t_jn V_j sigma_j (p_j - p_i)
 };
 
-/// The row gathers. Per row: q from h^2 - dx^2 less the layer's dz^2 and the row's dy^2; the
-/// sums of w S over each layer, whose z offset (x_n - p_i).z is the layer's, take it once per
-/// layer at the end instead of once per row (and the row's dy as a multiply-add of its own).
-/// Against the whole offset added per row: the display pass at 0.92x (10,000 strands, K = 10,
-/// one thread, AMD EPYC with AVX2, bench_follower_placement --stage display).
+/// A gather's sums at the particle r (relative to the origin), sum W V, sum W S and sum W P,
+/// as eq. (10)'s weight and pull (WetNodes).
+inline WetSums wetSums(const Lattice& L, const Vec3& r, double weight, double wet,
+                       const Vec3& pull_from_reference) {
+  WetSums sums;
+  sums.weight = weight;
+  sums.pull = pull_from_reference - (r - L.reference) * wet;
+  return sums;
+}
+
+/// The row gathers. Per row: q from h^2 - dx^2 less the layer's dz^2 and the row's dy^2, the
+/// kernel, and five multiply-adds: the sums of w V, w S and w P (WetNodes). With Q_n = V sigma
+/// (p - x_n) a row also needed w S times the row's y offset and a per-layer sum of w S for z:
+/// the display pass at 10,000 strands, K = 10 costs 0.92x without them (docs/physics.md §7.3).
 template <int kCells, typename Real>
 WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, double h2d) {
   typedef RowWindow<kCells, Real> Window;
   typedef typename Window::V V;
-  constexpr int kChunks = Window::kChunks, kWidth = Window::kWidth;
+  constexpr int kChunks = Window::kChunks;
   const Window win(L, r, h2d);
   const Real ka = static_cast<Real>(L.ka), kb = static_cast<Real>(L.kb);
   const Real h2 = static_cast<Real>(h2d);
   V reach[kChunks];  // h^2 - dx^2 of each lane's node
   for (int c = 0; c < kChunks; ++c) reach[c] = h2 - win.dx2[c];
-  V aw[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
-  V layer_s[kWidth][kChunks] = {};  // sum of w S over each layer's rows
+  V aw[kChunks] = {}, as[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
   win.forEachRow(L, h2d, [&](int64_t first, int a, int b) {
     for (int c = 0; c < kChunks; ++c) {
       const int64_t k = first + c * kLanes;
       const V q = positivePart((reach[c] - win.dz2[a]) - win.dy2[b]);
       const V w = nodeKernel(q, ka, kb);
-      const V ws = w * loadLanes<V>(g.wet_volume + k);
       aw[c] += w * loadLanes<V>(g.volume + k);
-      layer_s[a][c] += ws;
+      as[c] += w * loadLanes<V>(g.wet_volume + k);
       ax[c] += w * loadLanes<V>(g.qx + k);
       ay[c] += w * loadLanes<V>(g.qy + k);
-      ay[c] += ws * win.dy[b];
       az[c] += w * loadLanes<V>(g.qz + k);
     }
   });
-  V as[kChunks] = {};
-  for (int a = 0; a < kWidth; ++a)
-    for (int c = 0; c < kChunks; ++c) {
-      as[c] += layer_s[a][c];
-      az[c] += layer_s[a][c] * win.dz[a];
-    }
-  WetSums sums;
+  double weight = 0.0, wet = 0.0;
+  Vec3 pull = Vec3::Zero();
   for (int c = 0; c < kChunks; ++c) {
-    const V px = ax[c] + as[c] * win.dx[c];
-    sums.weight += laneSum(aw[c]);
-    sums.pull += Vec3(laneSum(px), laneSum(ay[c]), laneSum(az[c]));
+    weight += laneSum(aw[c]);
+    wet += laneSum(as[c]);
+    pull += Vec3(laneSum(ax[c]), laneSum(ay[c]), laneSum(az[c]));
   }
-  return sums;
+  return wetSums(L, r, weight, wet, pull);
 }
 
 /// gatherWet in float with packed rows.
@@ -452,21 +443,18 @@ WetSums gatherWetPacked(const Lattice& L, const WetNodes<float>& g, const Vec3& 
   const int64_t nx = L.nx;
   const V zero = {};
   V aw = zero, as = zero, ax = zero, ay = zero, az = zero;
-  win.forEachGroup(L, [&](int64_t first, int grp, float dz, float dz2) {
+  win.forEachGroup(L, [&](int64_t first, int grp, float dz2) {
     V q = h2 - (win.dx2 + (win.dy2[grp] + dz2));
     q = q > zero ? q : zero;
     const V w = nodeKernel(q, ka, kb);
-    const V ws = w * Window::load(g.wet_volume, first, nx);
     aw += w * Window::load(g.volume, first, nx);
-    as += ws;
+    as += w * Window::load(g.wet_volume, first, nx);
     ax += w * Window::load(g.qx, first, nx);
-    ay += w * Window::load(g.qy, first, nx) + ws * win.dy[grp];
-    az += w * Window::load(g.qz, first, nx) + ws * dz;
+    ay += w * Window::load(g.qy, first, nx);
+    az += w * Window::load(g.qz, first, nx);
   });
-  WetSums sums;
-  sums.weight = Window::sum(aw);
-  sums.pull = Vec3(Window::sum(ax + as * win.dx), Window::sum(ay), Window::sum(az));
-  return sums;
+  return wetSums(L, r, Window::sum(aw), Window::sum(as),
+                 Vec3(Window::sum(ax), Window::sum(ay), Window::sum(az)));
 }
 
 /// The float gathers: packed rows where they tile a register, one row per vector elsewhere.
@@ -632,9 +620,9 @@ inline std::pair<int, int> splatHalf(int half, int n) {
 }
 
 /// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell, half) gives the
-/// particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node,
-/// ax, ay, az, t) for the corner (cell + (ax, ay, az)) with the trilinear weight t, so that the
-/// particle's values are read once, not once per corner. One thread does both halves in turn;
+/// particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node, t)
+/// for each corner node with its trilinear weight t, so that the particle's values are read
+/// once, not once per corner. One thread does both halves in turn;
 /// a team gives each half its share of the threads, and a half's threads split its node layers
 /// kz evenly, each scanning the half's particles in order and adding only to its own layers.
 /// Every node of a copy receives its additions in particle order, as in a serial loop, so the
@@ -666,8 +654,8 @@ void splat(const Lattice& L, const Vec3List& p, int threads, Particle particle) 
           for (int ay = 0; ay < 2; ++ay) {
             const double wy = ay ? ty : 1.0 - ty;
             const int64_t row = L.index(cx, cy + ay, kz);
-            add(row, 0, ay, az, (1.0 - tx) * wy * wz);
-            add(row + 1, 1, ay, az, tx * wy * wz);
+            add(row, (1.0 - tx) * wy * wz);
+            add(row + 1, tx * wy * wz);
           }
         }
       }
@@ -675,23 +663,28 @@ void splat(const Lattice& L, const Vec3List& p, int threads, Particle particle) 
   });
 }
 
-/// Pass 2's adder for particle j: V onto a corner node, and V sigma and V sigma (p - x_n) as one
-/// vector onto the node's 4 entries of the side-by-side array, with the particle's values and its
-/// offsets from the cell's corner planes read once.
+/// Pass 2's adder for particle j: V onto a corner node, and V sigma and V sigma (p - x_ref)
+/// (WetNodes) as one vector onto the node's 4 entries of the side-by-side array, formed once per
+/// particle.
 struct WetSplat {
   typedef double Quad __attribute__((vector_size(32), aligned(8)));
   double* __restrict volume;
-  double* __restrict wet;  ///< 4 per node: V sigma, V sigma (p - x_n)
+  double* __restrict wet;  ///< 4 per node: V sigma, V sigma (p - x_ref)
   double v, vs;
-  double ox[2] = {}, oy[2] = {}, oz[2] = {};  ///< p - x_n per axis for the corner's 0 and 1
-  WetSplat(double* volume_nodes, double* wet_nodes, double volume_j, double wet_share_j)
-      : volume(volume_nodes), wet(wet_nodes), v(volume_j), vs(wet_share_j) {}
-  void operator()(int64_t node, int ax, int ay, int az, double t) const {
+  Quad particle;  ///< V sigma (1, p - x_ref)
+  WetSplat(double* volume_nodes, double* wet_nodes, double volume_j, double wet_share_j,
+           const Vec3& from_reference)
+      : volume(volume_nodes),
+        wet(wet_nodes),
+        v(volume_j),
+        vs(wet_share_j),
+        particle(wet_share_j *
+                 Quad{1.0, from_reference.x(), from_reference.y(), from_reference.z()}) {}
+  void operator()(int64_t node, double t) const {
     volume[node] += t * v;
     if (vs == 0.0) return;
-    const double tvs = t * vs;
     Quad* q = reinterpret_cast<Quad*>(wet + 4 * node);
-    *q += tvs * Quad{1.0, ox[ax], oy[ay], oz[az]};
+    *q += t * particle;
   }
 };
 
@@ -810,14 +803,9 @@ void addInto(std::vector<double>* a, const std::vector<double>& b, int64_t count
 /// Splats particle j's values onto its half's copies (WetSplat): volume v and wet share vs.
 inline WetSplat wetSplat(CohesionNodeGrid* g, const Lattice& L, const CellPosition& cell, int half,
                          double v, double vs) {
-  WetSplat add(half == 0 ? g->scalar.data() : g->scalar_b.data(),
-               half == 0 ? g->wet_splat.data() : g->wet_splat_b.data(), v, vs);
-  for (int a = 0; a < 2; ++a) {  // the corner planes' offsets, as (p - x_n) for each corner
-    add.ox[a] = cell.r.x() - (cell.k[0] + a) * L.c;
-    add.oy[a] = cell.r.y() - (cell.k[1] + a) * L.c;
-    add.oz[a] = cell.r.z() - (cell.k[2] + a) * L.c;
-  }
-  return add;
+  return WetSplat(half == 0 ? g->scalar.data() : g->scalar_b.data(),
+                  half == 0 ? g->wet_splat.data() : g->wet_splat_b.data(), v, vs,
+                  cell.r - L.reference);
 }
 
 /// The density rho = norm sum_j m_j W(|x - p_j|) of eq. (10)'s volumes, from the node sums.
@@ -846,7 +834,7 @@ void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, 
 /// its cell's nodes (the lattice's density field is smooth on the scale h: convolving once per
 /// node and interpolating costs a fraction of a gather per particle, at 1.02x its error against
 /// exact, docs/physics.md 7.3), followers included with gather_at "guides"; pass 2 splats V,
-/// V sigma and V sigma (p - x_n). Pass 2's node arrays are free until it starts: the node
+/// V sigma and V sigma (p - x_ref). Pass 2's node arrays are free until it starts: the node
 /// densities go to wet_volume.
 template <int kCells>
 NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, int64_t nodes,
@@ -859,8 +847,7 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
   splat(L, p, threads, [&](int j, const CellPosition&, int half) {
     const double m = model.mass_kg[j];
     double* const nodes_of_half = mass_nodes[half];
-    return
-        [m, nodes_of_half](int64_t node, int, int, int, double t) { nodes_of_half[node] += t * m; };
+    return [m, nodes_of_half](int64_t node, double t) { nodes_of_half[node] += t * m; };
   });
   densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads);
 
@@ -882,7 +869,7 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
 }
 
 /// The node arrays of eq. (10) with the node volumes (CohesionConfig::grid_node_volumes): one
-/// splat of m, m sigma and m sigma (p - x_n); the density at the nodes from the mass, each node's
+/// splat of m, m sigma and m sigma (p - x_ref); the density at the nodes from the mass, each node's
 /// sums divided by it (spreadWetSplat), and the gathered particles' densities (their own weight,
 /// include_self) from their cells' nodes. The node densities pass one trilinear interpolation
 /// (the splat), not two: the kernel's correction once (L.ka, L.kb). The followers' densities
@@ -985,7 +972,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
       write.unmoved(i, p[i]);
       return 0;
     }
-    // All strands: sum_n W_in V_n and sum_n W_in (Q_n + S_n (x_n - p_i)).
+    // All strands: sum_n W_in V_n and the pull sum_n W_in P_n - (p_i - x_ref) sum_n W_in S_n.
     const Vec3 ri(g.rx[i], g.ry[i], g.rz[i]);
     WetSums all =
         single ? gatherWetSingle<kCells>(L, wet_f, ri, h2) : gatherWet<kCells>(L, wet, ri, h2);
@@ -1126,6 +1113,7 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   L.ny = static_cast<int64_t>(std::floor(span.y())) + margin + 2;
   L.nz = static_cast<int64_t>(std::floor(span.z())) + margin + 2;
   const int64_t nodes = L.nx * L.ny * L.nz;
+  L.reference = L.c * Vec3(double(L.nx / 2), double(L.ny / 2), double(L.nz / 2));
   // The arrays carry kCohesionGridPadding nodes past the lattice for the last row's lanes.
   if (nodes + static_cast<int64_t>(kCohesionGridPadding) > static_cast<int64_t>(g.scalar.size()))
     return -1;

@@ -7,28 +7,38 @@
 #include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/solver.h"
+#include "wet_curly_hair/core/wet_kernels.h"
 #include "wet_curly_hair/io/scene_setup.h"
 
 using namespace wet_curly_hair;
 
 namespace {
 
+/// A model of `strands` strands of `particles` particles each, particle i of strand s at
+/// point(s, i) (a Vec3: an Eigen expression returned by a lambda would dangle), rooted downward.
+template <typename Point>
+HairModel strandsModel(int strands, int particles, const SolverConfig& c, Point point) {
+  Groom g;
+  for (int s = 0; s < strands; ++s) {
+    for (int i = 0; i < particles; ++i) g.points.push_back(point(s, i));
+    g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
+    g.root_normals.push_back(Vec3(0, 0, -1));
+  }
+  HairModel model;
+  std::string why;
+  EXPECT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &model, &why))
+      << why;
+  return model;
+}
+
 /// Two parallel straight strands `gap` apart, plus a third far away.
 struct Fixture {
   HairModel model;
   HairState state;
   Fixture(double gap) {
-    Groom g;
-    for (int s = 0; s < 3; ++s) {
-      const Vec3 base = s == 2 ? Vec3(1.0, 0, 0) : Vec3(s * gap, 0, 0);
-      for (int i = 0; i < 10; ++i) g.points.push_back(base + Vec3(0, 0, -0.008 * i));
-      g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
-      g.root_normals.push_back(Vec3(0, 0, -1));
-    }
-    SolverConfig c;
-    std::string why;
-    EXPECT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), c, &model, &why))
-        << why;
+    model = strandsModel(3, 10, SolverConfig(), [gap](int s, int i) -> Vec3 {
+      return (s == 2 ? Vec3(1.0, 0, 0) : Vec3(s * gap, 0, 0)) + Vec3(0, 0, -0.008 * i);
+    });
     state = makeState(model, Pose(), Twist());
   }
 };
@@ -283,7 +293,9 @@ TEST(CohesionGrid, SinglePrecisionMatchesDoubleFarBelowTheLatticeError) {
     // 0.037 / 2.95 um with the double fallback removed; with only the gathers in float, 0.034 /
     // 2.3 um, and 0.34 / 33 um without the fallback, where the max bound failed). On an AVX2
     // build (one row per 8-float vector at 3) the fallback below 1e-3 of the own weight let 16.7
-    // um through without the own weight, and failed here; below 1e-2, 0.61 um.
+    // um through without the own weight, and failed here; below 1e-2, 0.61 um. With the sums'
+    // positions from one reference node (larger terms in float), on the first-generation EPYC:
+    // at 4, 0.011 / 0.098 um and 0.033 / 1.5 um; at 3, 0.010 / 0.084 and 0.027 / 1.0 um.
     EXPECT_LT(d.rms_m, 0.01 * 0.130e-3) << include_self;
     EXPECT_LT(d.max_m, 0.01 * 1.44e-3) << include_self;
   }
@@ -329,24 +341,77 @@ TEST(CohesionGrid, ALoneParticlesDensityIsTheTwiceCorrectedKernelOverItsCell) {
   }
 }
 
+TEST(CohesionGrid, EvaluatesItsFunctionalExactlyInDouble) {
+  // The lattice replaces W(|p_i - p_j|) by W~_ij = sum_n t_jn K(|p_i - x_n|) over the 8 nodes of
+  // p_j's cell, K = W - (c^2 / 12) lap W (docs/physics.md §7.3); splat and gathers only reorder
+  // the sums. Evaluated here directly, particle by particle, from the lattice's own volumes V_j
+  // (state.cohesion_grid.volume) and its nodes (origin: the particles' lowest corner less
+  // cells + 2 nodes, as computeDisplayCohesionGrid places it): eq. (10)'s p^w from the other
+  // strands' V_j W~_ij and V_j sigma_j W~_ij (p_j - p_i) must match the lattice's in double to
+  // round-off, whatever node the lattice takes the positions of its sums from.
+  SolverConfig sc;
+  sc.cohesion.evaluation = "grid";
+  sc.cohesion.grid_single_precision = false;
+  sc.cohesion.include_self = false;
+  const HairModel model = strandsModel(3, 12, sc, [](int s, int i) -> Vec3 {  // wavy, 5 mm apart
+    return Vec3(0.005 * s + 0.002 * std::sin(i + s), 0.001 * s * std::cos(0.7 * i), -0.0071 * i);
+  });
+  ASSERT_EQ(model.particleCount(), 36);
+  HairState state = makeState(model, Pose(), Twist());
+  for (int i = 0; i < model.particleCount(); ++i) state.saturation[i] = 0.3 + 0.05 * (i % 13);
+  ASSERT_EQ(computeDisplayCohesion(model, sc.cohesion, &state), model.particleCount());
+  ASSERT_EQ(state.warnings.cohesion_grid_fallbacks, 0u);
+  const int cells = sc.cohesion.grid_cells_per_radius;
+  const double h = sc.cohesion.radius_m, h2 = h * h, c = h / cells;
+  Vec3 lo = state.position[0];
+  for (const Vec3& p : state.position) lo = lo.cwiseMin(p);
+  const Vec3 origin = lo - Vec3::Constant((cells + 2) * c);
+  auto node_kernel = [&](double r2) {
+    const double q = h2 - r2;
+    return q > 0.0 ? q * q * q + 3.5 * c * c * q * q - 2.0 * c * c * h2 * q : 0.0;
+  };
+  double worst = 0.0, largest_offset = 0.0;
+  for (int i = 0; i < model.particleCount(); ++i) {
+    const Vec3& pi = state.position[i];
+    double weight = 0.0;
+    Vec3 pull = Vec3::Zero();
+    for (int j = 0; j < model.particleCount(); ++j) {
+      if (state.grid.strand_of[j] == state.grid.strand_of[i]) continue;
+      const Vec3 u = (state.position[j] - origin) / c;
+      const Vec3 k = u.array().floor().matrix(), t = u - k;
+      double w = 0.0;  // W~_ij
+      for (int corner = 0; corner < 8; ++corner) {
+        const Vec3 a((corner & 1) ? 1.0 : 0.0, (corner & 2) ? 1.0 : 0.0, (corner & 4) ? 1.0 : 0.0);
+        const Vec3 share = a.cwiseProduct(t) + (Vec3::Ones() - a).cwiseProduct(Vec3::Ones() - t);
+        w += share.prod() * node_kernel((origin + c * (k + a) - pi).squaredNorm());
+      }
+      const double v = state.cohesion_grid.volume[j];
+      weight += v * w;
+      pull += v * state.saturation[j] * w * (state.position[j] - pi);
+    }
+    ASSERT_GT(weight, 0.0) << i;
+    const Vec3 offset = clumpOffset(pull, weight, sc.cohesion.tightness);
+    worst = std::max(worst, (state.wet_position[i] - (pi + offset)).norm());
+    largest_offset = std::max(largest_offset, offset.norm());
+  }
+  std::printf(
+      "lattice against its functional evaluated directly: max %.3g m, offsets up to %.3g m\n",
+      worst, largest_offset);
+  EXPECT_GT(largest_offset, 1e-4) << "no clumping: the test proves nothing";
+  EXPECT_LT(worst, 1e-12);
+}
+
 namespace {
 
 void dryHairAndIsolatedStrand(bool node_volumes) {
   SolverConfig sc;
   sc.cohesion.evaluation = "grid";
   sc.cohesion.grid_node_volumes = node_volumes;
-  Groom g;
   // Two strands 6 mm apart and a third 30 cm away.
-  for (int s = 0; s < 3; ++s) {
-    const Vec3 base = s == 2 ? Vec3(0.3, 0, 0) : Vec3(s * 0.006, 0, 0);
-    for (int i = 0; i < 10; ++i) g.points.push_back(base + Vec3(0, 0, -0.008 * i));
-    g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
-    g.root_normals.push_back(Vec3(0, 0, -1));
-  }
-  HairModel model;
-  std::string why;
-  ASSERT_TRUE(buildModel(g, GroomConfig().linear_density_kg_per_m, HeadShape(), sc, &model, &why))
-      << why;
+  const HairModel model = strandsModel(3, 10, sc, [](int s, int i) -> Vec3 {
+    return (s == 2 ? Vec3(0.3, 0, 0) : Vec3(s * 0.006, 0, 0)) + Vec3(0, 0, -0.008 * i);
+  });
+  ASSERT_EQ(model.particleCount(), 30);
   ASSERT_GT(model.cohesion_grid_nodes, 0u);
   HairState state = makeState(model, Pose(), Twist());
   EXPECT_EQ(computeDisplayCohesion(model, sc.cohesion, &state), 0) << "dry";

@@ -7,7 +7,8 @@
 // the nodes within h of p_i of W times node values splatted once per step (particle-in-cell), so
 // the cost per particle depends on h / spacing, not on how many neighbours there are:
 //   pass 1: node mass -> rho_i = norm sum_n W(|p_i - x_n|) M_n, V_i = m_i / rho_i (all particles);
-//   pass 2: node V, V sigma, V sigma (p - x_n) -> for each wet particle the sums over ALL strands;
+//   pass 2: node V, V sigma, V sigma (p - x_ref) (one reference node for the lattice) -> for each
+//   wet particle the sums over ALL strands;
 // the own strand's share is computed with the same functional from its particles (their 8 nodes
 // each) and subtracted, so it cancels up to round-off; a particle whose other-strand weight is
 // at most 1e-9 of its own strand's counts as isolated (p^w = p, A13).

@@ -115,8 +115,8 @@ struct HairContactState {
 struct CohesionNodeGrid {
   std::vector<double> scalar;      ///< pass 1: splatted mass; pass 2: splatted volume V.
   std::vector<double> wet_volume;  ///< pass 1: node densities (unnormalised); pass 2: V sigma.
-  std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - node).
-  /// Pass 2's splat of V sigma and V sigma (p - node), 4 per node side by side: a particle's
+  std::vector<double> qx, qy, qz;  ///< pass 2: splatted V sigma (p - x_ref), one reference node.
+  /// Pass 2's splat of V sigma and V sigma (p - x_ref), 4 per node side by side: a particle's
   /// corner then adds to one vector, not to four arrays (copied to wet_volume, qx, qy, qz after).
   std::vector<double> wet_splat;
   /// The second half of the particles' copies of scalar and wet_splat (the splat's halves,
