@@ -398,7 +398,8 @@ inline WetSums wetSums(const Lattice& L, const Vec3& r, double weight, double we
 /// The row gathers. Per row: q from h^2 - dx^2 less the layer's dz^2 and the row's dy^2, the
 /// kernel, and five multiply-adds: the sums of w V, w S and w P (WetNodes). With Q_n = V sigma
 /// (p - x_n) a row also needed w S times the row's y offset and a per-layer sum of w S for z:
-/// the display pass at 10,000 strands, K = 10 costs 0.92x without them (docs/physics.md §7.3).
+/// the display pass at 10,000 strands, K = 10 costs 0.85-0.91x without them (docs/physics.md
+/// §7.3).
 template <int kCells, typename Real>
 WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, double h2d) {
   typedef RowWindow<kCells, Real> Window;
@@ -622,9 +623,9 @@ inline std::pair<int, int> splatHalf(int half, int n) {
 /// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell, half) gives the
 /// particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node, t)
 /// for each corner node with its trilinear weight t, so that the particle's values are read
-/// once, not once per corner. One thread does both halves in turn;
-/// a team gives each half its share of the threads, and a half's threads split its node layers
-/// kz evenly, each scanning the half's particles in order and adding only to its own layers.
+/// once, not once per corner. One thread does both halves in turn; a team gives each half its
+/// share of the threads, and a half's threads split its node layers kz evenly, each scanning the
+/// half's particles in order and adding only to its own layers.
 /// Every node of a copy receives its additions in particle order, as in a serial loop, so the
 /// lattice is bit-identical for any thread count.
 template <typename Particle>
