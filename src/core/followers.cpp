@@ -361,17 +361,20 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const GuideEdgeCarry* carry = state.guide_edge_carry.data();
   for (int i = 0; i < n; ++i) {
-    const CarryQuad ox = splat<CarryQuad>(rest[i].x()), oy = splat<CarryQuad>(rest[i].y()),
-                    oz = splat<CarryQuad>(rest[i].z());
-    CarryQuad sum = splat<CarryQuad>(0.0);
+    // The weights go into the scalars, and the turns are summed before they turn the offset
+    // (sum_k w_k T_k r = (sum_k w_k T_k) r): 5 multiply-adds a sample, into 4 independent sums.
+    CarryQuad at = splat<CarryQuad>(0.0), turn_x = at, turn_y = at, turn_z = at;
     double ratio = 1.0;
     forEachGuideSample(model, s, begin + i, [&](uint32_t a, double w, double t) {
       const GuideEdgeCarry& e = carry[a];
-      sum += w * ((1.0 - t) * loadQuad(e.from) + t * loadQuad(e.to) +
-                  (loadQuad(e.turn_column[0]) * ox + loadQuad(e.turn_column[1]) * oy +
-                   loadQuad(e.turn_column[2]) * oz));
+      at += (w * (1.0 - t)) * loadQuad(e.from);
+      at += (w * t) * loadQuad(e.to);
+      turn_x += w * loadQuad(e.turn_column[0]);
+      turn_y += w * loadQuad(e.turn_column[1]);
+      turn_z += w * loadQuad(e.turn_column[2]);
       ratio = std::min(ratio, e.edgeRatio());
     });
+    const CarryQuad sum = at + (turn_x * rest[i].x() + turn_y * rest[i].y() + turn_z * rest[i].z());
     setLaneValue(&c.x[i], l, sum[0]);
     setLaneValue(&c.y[i], l, sum[1]);
     setLaneValue(&c.z[i], l, sum[2]);
