@@ -1,6 +1,7 @@
 // The groom generator (scalp patch on an ellipsoid head; curly or straight strands).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "wet_curly_hair/core/groom.h"
@@ -84,6 +85,27 @@ TEST(Groom, CurlRadiusAndPitchAreWhatWasAskedFor) {
   // Rise: arc length per turn sqrt((2 pi r)^2 + p^2); total rise = length * p / that.
   const double per_turn = std::hypot(2 * M_PI * 0.01, 0.02);
   EXPECT_NEAR(n.dot(g.points[119] - root), 0.6 * 0.02 / per_turn, 0.01);
+}
+
+TEST(Groom, EveryEdgeIsTheStrandLengthOverItsEdges) {
+  // Without jitter every strand is length_m long: each particle is placed on the curve at
+  // exactly length_m / (particles - 1) from the one before, a root of the chord's equation.
+  GroomConfig c;
+  c.strands = 40;
+  c.particles = 64;
+  c.jitter = 0.0;
+  EllipsoidShape head;
+  for (double radius : {0.002, 0.01, 0.03}) {
+    c.curl_radius_m = radius;
+    const Groom g = generateGroom(c, head);
+    const double edge = c.length_m / (c.particles - 1);
+    double worst = 0.0;
+    for (size_t i = 0; i + 1 < g.points.size(); ++i) {
+      if ((i + 1) % c.particles == 0) continue;  // the next strand's root
+      worst = std::max(worst, std::abs((g.points[i + 1] - g.points[i]).norm() - edge) / edge);
+    }
+    EXPECT_LT(worst, 1e-12) << "curl radius " << radius;
+  }
 }
 
 TEST(Groom, ConfigRefusesBadValuesByName) {
