@@ -137,9 +137,8 @@ struct HelixCurve {
   Vec3 root, normal, u, w;
   double radius, rise, ramp;  ///< m, m per radian, rad
   Vec3 at(double t) const {
-    const double x = std::min(1.0, t / ramp);
-    const double r = radius * x * x * (3.0 - 2.0 * x);
-    return Vec3(root + normal * (rise * t) + r * (std::cos(t) - 1.0) * u + r * std::sin(t) * w);
+    Vec3 tangent;
+    return at(t, &tangent);
   }
   /// The point at t and the curve's derivative there, with one sine and cosine.
   Vec3 at(double t, Vec3* tangent) const {
