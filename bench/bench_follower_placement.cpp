@@ -42,8 +42,8 @@ struct Options {
   int runs = 31;
   int threads = 1;
   std::string stage = "placement";
-  std::string gather_at = "all";
-  std::string node_volumes = "false";  ///< solver.cohesion.grid_node_volumes
+  std::string gather_at = CohesionConfig().gather_at;  ///< the default unless --gather-at
+  std::string node_volumes = "false";                  ///< solver.cohesion.grid_node_volumes
 };
 
 bool parse(int argc, char** argv, Options* o) {

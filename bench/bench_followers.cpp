@@ -4,7 +4,9 @@
 // with the same strand (same root) of the full run, particle by particle, at every compared frame:
 // RMS and max position error over the whole run and of the tips alone, in % of the strand's
 // length. Also the tip curl radius and the clump distance of each run (all output strands), and
-// the cost: wall seconds of step() per simulated second (median of --runs runs). Writes
+// the cost: wall seconds of step() per simulated second (median of --runs runs). Each K > 1 runs
+// again with the cohesion sums at the guides (cohesion.gather_at guides): the followers' display
+// positions p^w of the two against each other and each against the full run's. Writes
 // DIR/NAME.csv and, with gnuplot, DIR/NAME.png (NAME: --name, default followers) (cost against
 // error, K as the knob), and a Markdown table on stdout with the CPU. usage: bench_followers
 // [--strands N] [--ks 1,2,4,8,16] [--seconds T] [--runs N] [--threads N]
@@ -69,17 +71,26 @@ struct Row {
   /// RMS of the display offset |p^w - p| itself (gather at every particle).
   double guides_cost = 0.0, guides_clump_m = 0.0, display_rms = 0.0, display_max = 0.0;
   double offset_rms = 0.0;
+  /// The followers' display positions p^w against the full run's p^w of the same strand, RMS in
+  /// fractions of strand length: what the user sees against what simulating every strand shows,
+  /// with this run's sums (and with the sums at the guides, guides_full_display_rms).
+  double full_display_rms = 0.0, guides_full_display_rms = 0.0;
+  double guides_offset_rms = 0.0;  ///< the offset |p^w - p| with the sums at the guides, RMS
 };
 
 /// The wet_position of the followers of every compared frame.
 typedef std::vector<Vec3List> Frames;
 
+/// The full run's positions and display positions of every compared frame (groom strand order).
+struct Reference {
+  std::vector<Vec3List> position, wet_position;
+};
+
 /// Runs the scene at follow ratio k `runs` times; compares the first run's followers with
-/// `reference` (frames of the full run, groom strand order; empty: this is the reference, stored
-/// into *store).
-Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
-         std::vector<Vec3List>* store, const std::string& gather_at = "all",
-         Frames* display_store = nullptr, const Frames* display_reference = nullptr) {
+/// `reference` (the full run; empty: this is the reference, stored into *store).
+Row runK(const Options& o, int k, const Reference* reference, Reference* store,
+         const std::string& gather_at = "all", Frames* display_store = nullptr,
+         const Frames* display_reference = nullptr) {
   io::SceneConfig scene = benchScene(o, k);
   scene.solver.cohesion.gather_at = gather_at;
   HairModel model;
@@ -92,7 +103,7 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   const int first_follower = f.guide_strands > 0 ? f.guide_strands : model.strandCount();
   double sum2 = 0.0, tip_sum2 = 0.0, max = 0.0, tip_max = 0.0;
   double max_strain = 0.0, min_strain = 0.0;
-  double display_sum2 = 0.0, display_max = 0.0, offset_sum2 = 0.0;
+  double display_sum2 = 0.0, display_max = 0.0, offset_sum2 = 0.0, full_display_sum2 = 0.0;
   long count = 0, tips = 0, display_count = 0;
   const int follower_particle0 = model.strandBegin(first_follower);
   io::RunOptions options;
@@ -128,10 +139,12 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
       }
     }
     if (store) {  // the full run: groom order is model order
-      store->push_back(state.position);
+      store->position.push_back(state.position);
+      store->wet_position.push_back(state.wet_position);
       return;
     }
-    const Vec3List& ref = (*reference)[frame / o.compare_stride];
+    const Vec3List& ref = reference->position[frame / o.compare_stride];
+    const Vec3List& ref_wet = reference->wet_position[frame / o.compare_stride];
     for (int s = first_follower; s < model.strandCount(); ++s) {
       const int src = f.source_strand[s];
       const int n = model.strandSize(s), begin = model.strandBegin(s);
@@ -142,6 +155,9 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
         sum2 += e * e;
         max = std::max(max, e);
         ++count;
+        const double w = (state.wet_position[begin + i] - ref_wet[ref_begin + i]).norm() /
+                         model.strand_length_m[s];
+        full_display_sum2 += w * w;
       }
       const double e = (state.position[begin + n - 1] - ref[ref_begin + n - 1]).norm() /
                        model.strand_length_m[s];
@@ -183,6 +199,7 @@ Row runK(const Options& o, int k, const std::vector<Vec3List>* reference,
   row.display_rms = display_count ? std::sqrt(display_sum2 / display_count) : 0.0;
   row.display_max = display_max;
   row.offset_rms = display_count ? std::sqrt(offset_sum2 / display_count) : 0.0;
+  row.full_display_rms = count ? std::sqrt(full_display_sum2 / count) : 0.0;
   return row;
 }
 
@@ -260,7 +277,7 @@ int main(int argc, char** argv) {
       " cost the median of %d runs\n\n",
       cpu.c_str(), o.strands, o.seconds, o.dry ? "dry" : "wet",
       o.sag_free ? ", sag-free start" : "", o.threads, o.runs);
-  std::vector<Vec3List> reference;
+  Reference reference;
   std::vector<Row> rows;
   rows.push_back(runK(o, 1, nullptr, &reference));
   for (int k : o.ks) {
@@ -272,13 +289,16 @@ int main(int argc, char** argv) {
     row.guides_clump_m = guides.clump_m;
     row.display_rms = guides.display_rms;
     row.display_max = guides.display_max;
+    row.guides_full_display_rms = guides.full_display_rms;
+    row.guides_offset_rms = guides.offset_rms;
     rows.push_back(row);
   }
   std::ofstream csv(o.out + "/" + o.name + ".csv");
   csv << "strands,K,guides,cost_s_per_s,followers_cpu_s_per_s,rms_pct,max_pct,tip_rms_pct,"
          "tip_max_pct,curl_radius_tip_mm,clump_distance_mm,finite,guides_cost_s_per_s,"
          "guides_clump_distance_mm,display_offset_rms_pct,guides_display_rms_pct,"
-         "guides_display_max_pct,follower_max_strain_pct,follower_min_strain_pct\n";
+         "guides_display_max_pct,follower_max_strain_pct,follower_min_strain_pct,"
+         "display_vs_full_rms_pct,guides_display_vs_full_rms_pct,guides_display_offset_rms_pct\n";
   std::printf(
       "| K | guides | cost, s/s | of it followers, s/s | RMS %% | max %% | tip RMS %% | tip max %% "
       "| curl radius, mm | clump distance, mm | follower edge strain, max / min %% |\n"
@@ -289,7 +309,8 @@ int main(int argc, char** argv) {
         << 100 * r.tip_max << "," << 1e3 * r.curl_radius_m << "," << 1e3 * r.clump_m << ","
         << (r.finite ? 1 : 0) << "," << r.guides_cost << "," << 1e3 * r.guides_clump_m << ","
         << 100 * r.offset_rms << "," << 100 * r.display_rms << "," << 100 * r.display_max << ","
-        << 100 * r.max_strain << "," << 100 * r.min_strain << "\n";
+        << 100 * r.max_strain << "," << 100 * r.min_strain << "," << 100 * r.full_display_rms << ","
+        << 100 * r.guides_full_display_rms << "," << 100 * r.guides_offset_rms << "\n";
     std::printf(
         "| %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f | %.3g / %.3g |\n", r.k,
         r.guides, r.cost, r.follower_cost, 100 * r.rms, 100 * r.max, 100 * r.tip_rms,
@@ -299,13 +320,17 @@ int main(int argc, char** argv) {
   std::printf(
       "\nThe cohesion display with the sums at the guides only (cohesion.gather_at guides) against"
       " the sums at every particle (same dynamics), followers' p^w:\n\n| K | cost, s/s, all |"
-      " cost, s/s, guides | ratio | display offset RMS %% | p^w difference RMS %% | max %% |"
-      " clump distance, mm, all | guides |\n|---|---|---|---|---|---|---|---|---|\n");
+      " cost, s/s, guides | ratio | display offset RMS %%, all | guides | p^w difference RMS %% |"
+      " max %% |"
+      " clump distance, mm, all | guides | p^w against the full run's, RMS %%, all | guides |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows) {
     if (r.k <= 1) continue;
-    std::printf("| %d | %.3g | %.3g | %.2f | %.3g | %.3g | %.3g | %.2f | %.2f |\n", r.k, r.cost,
-                r.guides_cost, r.guides_cost / r.cost, 100 * r.offset_rms, 100 * r.display_rms,
-                100 * r.display_max, 1e3 * r.clump_m, 1e3 * r.guides_clump_m);
+    std::printf(
+        "| %d | %.3g | %.3g | %.2f | %.3g | %.3g | %.3g | %.3g | %.2f | %.2f | %.3g | %.3g |\n",
+        r.k, r.cost, r.guides_cost, r.guides_cost / r.cost, 100 * r.offset_rms,
+        100 * r.guides_offset_rms, 100 * r.display_rms, 100 * r.display_max, 1e3 * r.clump_m,
+        1e3 * r.guides_clump_m, 100 * r.full_display_rms, 100 * r.guides_full_display_rms);
   }
   csv.close();
   plot(o.out, o.name,

@@ -278,6 +278,7 @@ TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
   // positions.
   for (const char* evaluation : {"exact", "grid", "grid node volumes"}) {
     SolverConfig all;
+    all.cohesion.gather_at = "all";
     all.cohesion.evaluation = std::string(evaluation).substr(0, 5) == "exact" ? "exact" : "grid";
     all.cohesion.grid_node_volumes = std::string(evaluation) == "grid node volumes";
     SolverConfig guides = all;
@@ -299,6 +300,27 @@ TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
     }
     EXPECT_GT(moved, 0) << evaluation << ": no guide clumped, the test proves nothing";
     EXPECT_GT(differ, 0) << evaluation << ": the followers' p^w was not interpolated";
+  }
+}
+
+TEST(Followers, WithoutFollowersTheSumsAtTheGuidesAreTheSumsAtEveryParticle) {
+  // With K = 1 every strand is a guide: a groom without followers gets the sums at every
+  // particle either way, p^w to the bit.
+  for (const char* evaluation : {"exact", "grid"}) {
+    SolverConfig all;
+    all.cohesion.evaluation = evaluation;
+    all.cohesion.gather_at = "all";
+    SolverConfig guides = all;
+    guides.cohesion.gather_at = "guides";
+    const HairModel m = followerModel(curlyGroom(40), 1, all);
+    ASSERT_EQ(m.followers.guide_strands, 0);
+    const HairState a = wetNodRun(m, all, 12), b = wetNodRun(m, guides, 12);
+    int moved = 0;
+    for (int i = 0; i < m.particleCount(); ++i) {
+      ASSERT_EQ(a.wet_position[i], b.wet_position[i]) << evaluation << " " << i;
+      moved += a.wet_position[i] != a.position[i];
+    }
+    EXPECT_GT(moved, 0) << evaluation << ": nothing clumped, the test proves nothing";
   }
 }
 
