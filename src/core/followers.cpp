@@ -360,12 +360,13 @@ void interpolateFromGuides(const HairModel& model, const HairState& state, int s
                            int l, const FollowerColumns& c) {
   const int begin = model.strandBegin(s), n = model.strandSize(s);
   const GuideEdgeCarry* carry = state.guide_edge_carry.data();
+  const GuideSamples samples(model, s);
   for (int i = 0; i < n; ++i) {
     // The weights go into the scalars, and the turns are summed before they turn the offset
     // (sum_k w_k T_k r = (sum_k w_k T_k) r): 5 multiply-adds a sample, into 4 independent sums.
     CarryQuad at = splat<CarryQuad>(0.0), turn_x = at, turn_y = at, turn_z = at;
     double ratio = 1.0;
-    forEachGuideSample(model, s, begin + i, [&](uint32_t a, double w, double t) {
+    samples.forEach(begin + i, [&](uint32_t a, double w, double t) {
       const GuideEdgeCarry& e = carry[a];
       at += (w * (1.0 - t)) * loadQuad(e.from);
       at += (w * t) * loadQuad(e.to);
@@ -629,6 +630,7 @@ int displayFollowersFromGuides(const HairModel& model, const CohesionConfig& con
   const detail::DisplayWrite write = detail::displayWrite(config, state);
   return static_cast<int>(detail::parallelSum(threads, 16, followers, [&](int k) -> int {
     const int s = f.guide_strands + k, begin = model.strandBegin(s);
+    const GuideSamples samples(model, s);
     int moved = 0;
     for (int i = begin; i < begin + model.strandSize(s); ++i) {
       const Vec3& p = state->position[i];
@@ -638,7 +640,7 @@ int displayFollowersFromGuides(const HairModel& model, const CohesionConfig& con
       }
       // x, y, z of the offsets in one register (the spare lane 0): two per sample.
       CarryQuad d = splat<CarryQuad>(0.0);
-      forEachGuideSample(model, s, i, [&](uint32_t a, double w, double t) {
+      samples.forEach(i, [&](uint32_t a, double w, double t) {
         d += w * ((1.0 - t) * loadTriple(offset + 3 * size_t(a)) +
                   t * loadTriple(offset + 3 * (size_t(a) + 1)));
       });

@@ -48,26 +48,42 @@ bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int 
 void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, const double* sigma,
                      Vec3* out);
 
-/// Calls fn(a, w, t) for each guide sample of follower particle i (global index, of follower
-/// strand s): the guide's weight w (the weights sum to 1) and the guide edge from particle a to
-/// a + 1 on which the follower's normalized arc length falls, at fraction t, as updateFollowers
-/// places it. A sample stands for weight w (1 - t) at a and w t at a + 1.
-template <typename Fn>
-WCH_INLINE void forEachGuideSample(const HairModel& model, int s, int i, Fn fn) {
-  const FollowerMap& f = model.followers;
-  const size_t k = static_cast<size_t>(s - f.guide_strands) * kFollowerGuides;
-  const size_t e0 = static_cast<size_t>(i - static_cast<int>(model.strandBegin(f.guide_strands))) *
-                    kFollowerGuides;
-  for (int g = 0; g < kFollowerGuides; ++g) {
-    const double w = f.weight[k + g];
-    if (w == 0.0) continue;
-    fn(f.sample_index[e0 + g], w, f.sample_fraction[e0 + g]);
+/// The guide samples of one follower strand s, as updateFollowers places it: for each of its
+/// particles i (global index), forEach(i, fn) calls fn(a, w, t) per guide that counts, with the
+/// guide's weight w (the weights sum to 1) and the guide edge from particle a to a + 1 on which
+/// the follower's normalized arc length falls, at fraction t. A sample stands for weight w (1 -
+/// t) at a and w t at a + 1. The strand's weights and the arrays' addresses are read once, at
+/// construction, not at every particle (the callers' stores may alias the model's vectors, so
+/// the compiler read them again at every sample).
+class GuideSamples {
+ public:
+  GuideSamples(const HairModel& model, int s) {
+    const FollowerMap& f = model.followers;
+    const size_t k = static_cast<size_t>(s - f.guide_strands) * kFollowerGuides;
+    for (int g = 0; g < kFollowerGuides; ++g) weight_[g] = f.weight[k + g];
+    first_particle_ = static_cast<int>(model.strandBegin(f.guide_strands));
+    index_ = f.sample_index.data();
+    fraction_ = f.sample_fraction.data();
   }
-}
+  template <typename Fn>
+  WCH_INLINE void forEach(int i, Fn fn) const {
+    const size_t e0 = static_cast<size_t>(i - first_particle_) * kFollowerGuides;
+    for (int g = 0; g < kFollowerGuides; ++g) {
+      if (weight_[g] == 0.0) continue;
+      fn(index_[e0 + g], weight_[g], fraction_[e0 + g]);
+    }
+  }
+
+ private:
+  double weight_[kFollowerGuides];
+  int first_particle_;
+  const uint32_t* index_;
+  const double* fraction_;
+};
 
 /// cohesion.gather_at "guides", after the guides' display offsets (state->guide_clump_offset,
 /// wet or dry guide particles alike): every wet follower particle's p^w = p plus the offsets
-/// interpolated at it (forEachGuideSample), every dry one's p^w = p; the offsets also to
+/// interpolated at it (GuideSamples), every dry one's p^w = p; the offsets also to
 /// state->display_offset where config holds them between evaluations (refresh_period_s > 0).
 /// An approximation: a particle's own offset points at its nearest neighbours, millimetres away,
 /// which its guides' offsets do not know; measured, the followers' p^w differs from their own
