@@ -13,7 +13,8 @@
 # and keeps every ~status. Prints and writes OUT/node_10k.json: message bytes, messages received
 # per wall second, the node's per-frame solver step, conversion (state -> messages) and publish
 # times (means over the status messages of the window), skipped frames in the window, solver and
-# achieved real-time factors. Defaults: T = 20, N = 10000, K = 10, cohesion ours, the cohesion
+# achieved real-time factors, and the CPU as the runner names it (its JSON's cpu, from one frame of
+# one strand). Defaults: T = 20, N = 10000, K = 10, cohesion ours, the cohesion
 # sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at), the
 # display offsets evaluated every frame (--refresh S: at most every S s, solver.cohesion.
 # refresh_period_s), the solver's substep 5e-4 s, the default (--substep S: solver.integrator.
@@ -62,6 +63,10 @@ port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("localho
 export ROS_MASTER_URI="http://localhost:$port" ROS_HOSTNAME=localhost
 export ROS_HOME="$out/ros_home" ROS_LOG_DIR="$out/ros_home/log"
 mkdir -p "$ROS_LOG_DIR"
+"$(wch_bin wet_curly_hair_run)" --strands 1 --seconds 0.0166667 --no-measure --json "$out/cpu.json" \
+  > /dev/null
+cpu=$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["cpu"])' \
+  "$out/cpu.json")
 pids=()
 cleanup() {
   for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
@@ -101,7 +106,7 @@ else
   fi
 fi
 if [ "$sink" = 1 ]; then status_only=1; fi  # the probe itself takes no strands
-/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" "$sink" "$nodelet" <<'PY'
+/usr/bin/python3 - "$out/node_10k.json" "$seconds" "$strands" "$ratio" "$cohesion" "$gather_at" "$refresh" "$status_only" "$substep" "$node_volumes" "$sink" "$nodelet" "$cpu" <<'PY'
 import json, sys, time
 import rospy
 from std_msgs.msg import UInt64
@@ -109,6 +114,7 @@ from wet_curly_hair.msg import Status
 path, seconds, strands, ratio, cohesion, gather_at = sys.argv[1], float(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4]), sys.argv[5], sys.argv[6]
 refresh, status_only, substep = float(sys.argv[7]), sys.argv[8] == "1", float(sys.argv[9])
 node_volumes, sink, in_manager = sys.argv[10] == "true", sys.argv[11] == "1", sys.argv[12] == "1"
+cpu = sys.argv[13]
 rospy.init_node("node_10k_probe", anonymous=True)
 window = {"on": False, "messages": 0, "bytes": [], "status": []}
 def on_strands(msg):
@@ -146,7 +152,7 @@ if not st or (not window["bytes"] and (sink or not status_only)):
 mean = lambda xs: sum(xs) / len(xs)
 first, last = window["status"][0], window["status"][-1]
 r = {
-    "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
+    "cpu": cpu, "strands": strands, "follow_ratio": ratio, "cohesion": cohesion, "gather_at": gather_at,
     "refresh_period_s": refresh, "substep_s": substep, "node_volumes": node_volumes,
     "strands_subscribed": sink or not status_only,
     "consumer": ("sink nodelet" if in_manager else "sink") if sink else ("none" if status_only else "probe"),

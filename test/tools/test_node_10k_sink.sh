@@ -22,6 +22,8 @@ json=$out/sink/node_10k.json
 # 60 strands x 32: positions, saturation and display positions as float32, 23,040 bytes.
 check "the sink took the frames" \
   "[ \"\$(field $json consumer)\" = sink ] && /usr/bin/python3 -c \"import json,sys; d=json.load(open('$json')); sys.exit(0 if d['messages_received_per_s'] > 10 and d['message_bytes'] > 23040 else 1)\""
+# Every figure names its CPU: the runner's own words for it, family and model included.
+check "the figures name the CPU" "field $json cpu | grep -q 'family [0-9]*, model [0-9]*'"
 # --nodelet: the node and the sink as nodelets of one manager; the sink takes the frames in process.
 WCH_BUILD=$build bench/node_10k.sh --strands 60 --follow-ratio 4 --seconds 2 --sink --nodelet \
   --out "$out/nodelet" > "$out/nodelet.txt" 2>&1
