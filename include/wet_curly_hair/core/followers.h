@@ -53,8 +53,8 @@ void exaggeratedRest(const HairModel& model, const CurlConfig& curl, int s, cons
 /// guide's weight w (the weights sum to 1) and the guide edge from particle a to a + 1 on which
 /// the follower's normalized arc length falls, at fraction t. A sample stands for weight w (1 -
 /// t) at a and w t at a + 1. The strand's weights and the arrays' addresses are read once, at
-/// construction, not at every particle (the callers' stores may alias the model's vectors, so
-/// the compiler read them again at every sample).
+/// construction: read through the model at every particle, the compiled passes loaded them again
+/// at every sample (docs/followers.md, measured).
 class GuideSamples {
  public:
   GuideSamples(const HairModel& model, int s) {
