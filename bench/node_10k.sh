@@ -11,15 +11,15 @@
 # behind the head, ~publish_rate 60, ROS time = wall clock. A subscriber counts the ~strands
 # messages that arrive and their serialized bytes over the last T seconds (after 5 s of warm-up)
 # and keeps every ~status. Prints and writes OUT/node_10k.json: message bytes, messages received
-# per wall second, the node's per-frame solver step, conversion (state -> messages) and publish
-# times (means over the status messages of the window), skipped frames in the window, solver and
-# achieved real-time factors, and the CPU as the runner names it (its JSON's cpu, from one frame of
-# one strand). Defaults: T = 20, N = 10000, K = 10, cohesion ours, the cohesion
-# sums at every particle (--gather-at guides: at the guides only, solver.cohesion.gather_at), the
-# display offsets evaluated every frame (--refresh S: at most every S s, solver.cohesion.
-# refresh_period_s), the solver's substep 5e-4 s, the default (--substep S: solver.integrator.
-# substep_s), the lattice's volumes at the particles (--node-volumes true: at its nodes,
-# solver.cohesion.grid_node_volumes).
+# per wall second, the node's per-frame solver step, conversion (state -> messages), publish and
+# head pose lookup (with its bounded wait for the pose) times (means over the status messages of
+# the window), skipped frames in the window, solver and achieved real-time factors, and the CPU
+# as the runner names it (its JSON's cpu, from one frame of one strand). Defaults: T = 20,
+# N = 10000, K = 10, cohesion ours, the cohesion sums at every particle (--gather-at guides: at
+# the guides only, solver.cohesion.gather_at), the display offsets evaluated every frame
+# (--refresh S: at most every S s, solver.cohesion.refresh_period_s), the solver's substep
+# 5e-4 s, the default (--substep S: solver.integrator.substep_s), the lattice's volumes at the
+# particles (--node-volumes true: at its nodes, solver.cohesion.grid_node_volumes).
 # --status-only: the probe subscribes to ~status alone, so ~strands has no
 # subscriber and nothing receives its 9 MB per frame on this machine (a consumer on another
 # machine, or none): the node's own capacity, without a local receiver competing for the cores.
@@ -165,6 +165,7 @@ r = {
     "step_time_s": mean([m.step_time_s for m in st]),
     "conversion_time_s": mean([m.conversion_time_s for m in st]),
     "publish_time_s": mean([m.publish_time_s for m in st]),
+    "tf_lookup_time_s": mean([m.tf_lookup_time_s for m in st]),
     "solver_real_time_factor": mean([m.solver_real_time_factor for m in st]),
     "real_time_factor": mean([m.real_time_factor for m in window["status"]]),
     "skipped_frames_in_window": last.skipped_frames - first.skipped_frames,

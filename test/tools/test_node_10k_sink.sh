@@ -22,6 +22,10 @@ json=$out/sink/node_10k.json
 # 60 strands x 32: positions, saturation and display positions as float32, 23,040 bytes.
 check "the sink took the frames" \
   "[ \"\$(field $json consumer)\" = sink ] && /usr/bin/python3 -c \"import json,sys; d=json.load(open('$json')); sys.exit(0 if d['messages_received_per_s'] > 10 and d['message_bytes'] > 23040 else 1)\""
+# The head pose lookups are timed: their mean per frame, the bounded wait for the pose included,
+# is at least 0 and at most the node's default ~tf_timeout_s (0.05 s) plus a lookup.
+check "the pose lookups' time per frame is reported" \
+  "/usr/bin/python3 -c \"import json,sys; t=json.load(open('$json'))['tf_lookup_time_s']; sys.exit(0 if 0.0 <= t < 0.06 else 1)\""
 # Every figure names its CPU: the runner's own words for it, family and model included.
 check "the figures name the CPU" "field $json cpu | grep -q 'family [0-9]*, model [0-9]*'"
 # --nodelet: the node and the sink as nodelets of one manager; the sink takes the frames in process.
