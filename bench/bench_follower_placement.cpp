@@ -43,7 +43,8 @@ struct Options {
   int threads = 1;
   std::string stage = "placement";
   std::string gather_at = CohesionConfig().gather_at;  ///< the default unless --gather-at
-  std::string node_volumes = "false";                  ///< solver.cohesion.grid_node_volumes
+  /// solver.cohesion.grid_node_volumes: the default unless --node-volumes.
+  std::string node_volumes = CohesionConfig().grid_node_volumes ? "true" : "false";
 };
 
 bool parse(int argc, char** argv, Options* o) {
