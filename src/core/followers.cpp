@@ -305,8 +305,13 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
   return held;
 }
 
-/// The followers' lanes: 4 strands placed together in doubles, one per lane (AVX2's width).
-using FollowerLane = LaneDouble4;
+/// The followers' lanes: 8 strands placed together in floats, one per lane (AVX2's width). The
+/// guides' samples are summed in double and rounded once into the lanes, so a follower's
+/// positions hold single precision, the precision of every output that carries them (~strands,
+/// .hair frames); no error accumulates, since each frame places them anew. On the first-
+/// generation EPYC (AVX2 on 128-bit units) 8 floats cost what 4 doubles did: the placement at
+/// 0.75-0.87x of lanes of 4 doubles (docs/followers.md).
+using FollowerLane = LaneFloat8;
 constexpr int kFollowerLanes = kLaneWidth<FollowerLane>;
 
 /// x, y, z and a spare of one guide edge's carry (GuideEdgeCarry) in one register.
@@ -567,7 +572,7 @@ LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
 
 /// Places follower strands [first, first + count), count <= kFollowerLanes, one per lane (see
 /// updateFollowers): each one's positions from its guides (startFollower), then root to tip the
-/// edge hold on the lanes, each instruction holding 4 strands' edges and testing their distance
+/// edge hold on the lanes, each instruction holding 8 strands' edges and testing their distance
 /// caches (one strand at a time, the placement ran about 400 instructions per particle; running
 /// 4 strands' scalar holds in turn, to overlap their chains, gained nothing). Where a projection
 /// may act on a lane, that lane's projections run alone (holdAndProject, as do the later rounds).

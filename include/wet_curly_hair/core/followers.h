@@ -98,7 +98,8 @@ int displayFollowersFromGuides(const HairModel& model, const CohesionConfig& con
 /// the guide's frame there (edge frames of the curve smoothed over the core smoothing length,
 /// current against rest); then pushed out of the head (collision offset, as the solver) and the
 /// obstacles (world frame; null: none). Velocities are the change of position over dt_s (none when
-/// dt_s is 0). Allocates nothing. No-op without followers.
+/// dt_s is 0). The placement runs in single precision (followers.cpp, FollowerLane): positions,
+/// lengths and clearances hold to float round-off. Allocates nothing. No-op without followers.
 void updateFollowers(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
                      const Obstacles* obstacles, double dt_s, int threads, HairState* state);
 
