@@ -3,7 +3,9 @@
 
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/obstacles.h"
@@ -24,6 +26,18 @@ inline std::string cpuLine() { return io::describeThisCpu(); }
 /// Monotonic wall seconds (the benches time; the core never reads a clock).
 inline double now() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+/// Creates the output directory `dir` with its parents where missing. False, with a message on
+/// stderr naming the directory and the reason, when it cannot (a file in the way, no permission):
+/// without it every table and chart the bench writes there would be lost without a word.
+inline bool makeOutputDirectory(const std::string& program, const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (!error && std::filesystem::is_directory(dir, error)) return true;
+  std::fprintf(stderr, "%s: cannot use --out %s as a directory: %s\n", program.c_str(), dir.c_str(),
+               error ? error.message().c_str() : "not a directory");
+  return false;
 }
 
 /// Reads `--key value` pairs: take(key, value) for each, false on a key it does not know. False

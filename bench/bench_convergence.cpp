@@ -191,6 +191,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: bench_convergence [--out DIR] [--seconds T] [--runs N]\n");
     return 2;
   }
+  if (!bench::makeOutputDirectory("bench_convergence", out)) return 2;
   std::printf("%s; %g s of the nod\n", bench::cpuLine().c_str(), seconds);
   const std::vector<int> resolutions = {16, 32, 64, 128};
   std::vector<Setting> strand_settings, groom_settings;

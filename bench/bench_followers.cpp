@@ -271,6 +271,7 @@ int main(int argc, char** argv) {
         " [--threads N] [--compare-stride F] [--out DIR] [--name NAME] [--dry] [--sag-free]\n");
     return 2;
   }
+  if (!bench::makeOutputDirectory("bench_followers", o.out)) return 2;
   const std::string cpu = cpuLine();
   std::printf(
       "CPU: %s; %d strands x 32, %g s of the built-in %s nod with a sphere%s, %d thread(s),"

@@ -18,8 +18,6 @@
 //   wet_curly_hair_bench --out docs/bench            # the long form (tens of minutes)
 //   wet_curly_hair_bench --quick --out /tmp/bench    # a smoke run (seconds): no timing claims
 //   wet_curly_hair_bench --replot --out docs/bench   # redraw the charts from the CSV files
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -31,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_common.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/shape_stats.h"
 #include "wet_curly_hair/core/solver.h"
@@ -1127,7 +1126,7 @@ int main(int argc, char** argv) {
     if (lanes_csv) plotLanes(opt.out);
     return 0;
   }
-  mkdir(opt.out.c_str(), 0755);
+  if (!wet_curly_hair::bench::makeOutputDirectory("wet_curly_hair_bench", opt.out)) return 2;
   bool all_ok = true;
   if (opt.builtin && benchBuiltin(opt, &all_ok) != 0) return 2;
   if (opt.work_precision && benchWorkPrecision(opt, &all_ok) != 0) return 2;

@@ -164,5 +164,17 @@ check "targets_10k.py prints both targets' medians and writes every run" \
 targets_rc=$?
 check "targets_10k.py refuses --runs 0 (got $targets_rc)" \
   "[ $targets_rc -eq 2 ] && grep -q 'at least 1' $out/targets_err"
+# --out: a missing directory is made with its parents; a file in the way is refused by name,
+# before any run, instead of every table and chart being lost.
+followers=$(tool_path bench_followers "$build") || exit 1
+"$followers" --strands 50 --ks 2 --seconds 0.05 --runs 1 --out "$out/new/nested" > /dev/null 2>&1
+followers_rc=$?
+check "bench_followers makes a missing --out directory (got $followers_rc)" \
+  "[ $followers_rc -eq 0 ] && [ -s $out/new/nested/followers.csv ]"
+touch "$out/a_file"
+"$bench" --quick --out "$out/a_file" > /dev/null 2> "$out/out_err"
+out_rc=$?
+check "wet_curly_hair_bench refuses a file as --out (got $out_rc)" \
+  "[ $out_rc -eq 2 ] && grep -q 'cannot use --out .*a_file' $out/out_err && [ ! -s $out/a_file ]"
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]
