@@ -410,7 +410,6 @@ struct PlacementFrame {
     const Mat3 r = pose.rotation.toRotationMatrix();
     rotation = splat33<double>(r);
     rotation_lanes = splat33<FollowerLane>(r);
-    translation_lanes = splat3<FollowerLane>(pose.translation);
   }
   const HairModel& model;
   const SolverConfig& config;
@@ -419,11 +418,12 @@ struct PlacementFrame {
   double inverse_dt;
   M33<double> rotation;
   M33<FollowerLane> rotation_lanes;  ///< splat once: the hold transforms every particle
-  V3<FollowerLane> translation_lanes;
   V3<double> toWorld(const V3<double>& x) const { return rotation * x + toV3(pose.translation); }
-  V3<FollowerLane> toWorld(const V3<FollowerLane>& x) const {
-    return rotation_lanes * x + translation_lanes;
-  }
+  /// World positions on the lanes relative to the head's position (the pose's translation): in
+  /// float lanes a world coordinate 1 km from the origin would hold 60 um, one relative to the
+  /// head holds what the head frame does. The translation is added in double where a position
+  /// leaves the lanes (storeFollowerParticles, LaneDistanceCaches).
+  V3<FollowerLane> toWorldFromHead(const V3<FollowerLane>& x) const { return rotation_lanes * x; }
 };
 
 /// One follower in a group being placed: its range of particles and whether an obstacle is within
@@ -501,14 +501,15 @@ Vec3 holdAndProject(const PlacementFrame& frame, const HeldEdge& edge, bool near
   return toEigen(world);
 }
 
-/// Particle i of each follower of the group where it has one: its world position, and its
-/// velocity over the frame.
+/// Particle i of each follower of the group where it has one: its world position (from the
+/// lanes' world_from_head, relative to the head's position: PlacementFrame::toWorldFromHead), and
+/// its velocity over the frame.
 WCH_INLINE void storeFollowerParticles(const PlacementFrame& frame, const FollowerInGroup* group,
-                                       int count, int i, const V3<FollowerLane>& world,
+                                       int count, int i, const V3<FollowerLane>& world_from_head,
                                        HairState* state) {
   for (int l = 0; l < count; ++l) {
     if (i >= group[l].n) continue;
-    const Vec3 w = lane(world, l);
+    const Vec3 w = lane(world_from_head, l) + frame.pose.translation;
     Vec3& p = state->position[group[l].begin + i];
     state->velocity[group[l].begin + i] = frame.inverse_dt * (w - p);
     p = w;  // last_good_*: the repairs restore guides only; followers are placed anew
@@ -516,18 +517,21 @@ WCH_INLINE void storeFollowerParticles(const PlacementFrame& frame, const Follow
 }
 
 /// A group's distance caches (DistanceCache) on the lanes: the head's in the head frame, the
-/// obstacles' in the world.
+/// obstacles' in the world relative to the head's position (origin; PlacementFrame::
+/// toWorldFromHead), as holdAndProject's are in the world itself.
 struct LaneDistanceCaches {
+  explicit LaneDistanceCaches(const Vec3& head_position) : origin(head_position) {}
+  Vec3 origin;
   V3<FollowerLane> head_anchor = zero3<FollowerLane>(), obstacle_anchor = zero3<FollowerLane>();
   FollowerLane head_slack = splat<FollowerLane>(-1.0), obstacle_slack = splat<FollowerLane>(-1.0);
   DistanceCache head(int l) const { return {lane(head_anchor, l), laneValue(head_slack, l)}; }
   DistanceCache obstacle(int l) const {
-    return {lane(obstacle_anchor, l), laneValue(obstacle_slack, l)};
+    return {lane(obstacle_anchor, l) + origin, laneValue(obstacle_slack, l)};
   }
   void set(int l, const DistanceCache& head, const DistanceCache& obstacle) {
     setLane(&head_anchor, l, head.anchor);
     setLaneValue(&head_slack, l, head.slack);
-    setLane(&obstacle_anchor, l, obstacle.anchor);
+    setLane(&obstacle_anchor, l, Vec3(obstacle.anchor - origin));
     setLaneValue(&obstacle_slack, l, obstacle.slack);
   }
 };
@@ -536,7 +540,8 @@ struct LaneDistanceCaches {
 /// positions x (world: world) after the first hold: the head's lower bound and the obstacles'
 /// distance where the caches do not cover a lane, the caches updated as projectOutOfHead and
 /// holdAndProject update them. Returns the lanes where a projection may act: there
-/// holdAndProject evaluates again (the caches left empty for it) and projects.
+/// holdAndProject evaluates again (the caches left empty for it) and projects. world is
+/// relative to the head's position (PlacementFrame::toWorldFromHead).
 LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
                                            const LaneMask<FollowerLane>& lanes,
                                            const LaneMask<FollowerLane>& near_obstacle,
@@ -560,7 +565,7 @@ LaneMask<FollowerLane> projectionsPossible(const PlacementFrame& frame,
       distanceNeeded(world, caches->obstacle_anchor, caches->obstacle_slack);
   if (anyLane(obstacle_test)) {
     V3<S> normal;
-    const S dist = frame.obstacles->distance(world, Vec3::Zero(), obstacle_test, &normal);
+    const S dist = frame.obstacles->distance(world, caches->origin, obstacle_test, &normal);
     S slack;
     const LaneMask<S> acts = obstacleActs(dist, frame.config.obstacle.offset_m, &slack);
     caches->obstacle_anchor = select(obstacle_test, world, caches->obstacle_anchor);
@@ -591,10 +596,10 @@ void placeFollowers(const PlacementFrame& frame, int first, int count, const Fol
   }
   const double strain_limit = frame.config.stretch.strain_limit;
   const LaneMask<S> near = near_obstacle > splat<S>(0.0);
-  LaneDistanceCaches caches;
+  LaneDistanceCaches caches(frame.pose.translation);
   V3<S> before{c.x[0], c.y[0], c.z[0]};
   S ratio_before = c.least_ratio[0];
-  storeFollowerParticles(frame, group, count, 0, frame.toWorld(before), state);
+  storeFollowerParticles(frame, group, count, 0, frame.toWorldFromHead(before), state);
   for (int i = 1; i < longest; ++i) {
     V3<S> x{c.x[i], c.y[i], c.z[i]};
     const S ratio = c.least_ratio[i];
@@ -603,19 +608,20 @@ void placeFollowers(const PlacementFrame& frame, int first, int count, const Fol
         vmin(splat<S>(1.0 - strain_limit), vmin(ratio, ratio_before)) * c.rest_length[i];
     const S max_length = splat<S>(1.0 + strain_limit) * c.rest_length[i];
     x += clampEdgeLength(before, x, min_length, max_length);
-    V3<S> world = frame.toWorld(x);
+    V3<S> world = frame.toWorldFromHead(x);  // relative to the head's position
     const LaneMask<S> on = splat<S>(i) < strand_size;
-    patchLanes(
-        projectionsPossible(frame, on, near, x, world, c.head_offset[i], &caches), [&](int l) {
-          const HeldEdge edge{lane(before, l), laneValue(min_length, l), laneValue(max_length, l),
-                              laneValue(c.head_offset[i], l)};
-          DistanceCache head = caches.head(l), obstacle = caches.obstacle(l);
-          Vec3 xl = lane(x, l);
-          setLane(&world, l,
-                  holdAndProject(frame, edge, group[l].near_obstacle, &head, &obstacle, &xl));
-          setLane(&x, l, xl);
-          caches.set(l, head, obstacle);
-        });
+    patchLanes(projectionsPossible(frame, on, near, x, world, c.head_offset[i], &caches),
+               [&](int l) {
+                 const HeldEdge edge{lane(before, l), laneValue(min_length, l),
+                                     laneValue(max_length, l), laneValue(c.head_offset[i], l)};
+                 DistanceCache head = caches.head(l), obstacle = caches.obstacle(l);
+                 Vec3 xl = lane(x, l);
+                 const Vec3 placed =
+                     holdAndProject(frame, edge, group[l].near_obstacle, &head, &obstacle, &xl);
+                 setLane(&world, l, Vec3(placed - frame.pose.translation));
+                 setLane(&x, l, xl);
+                 caches.set(l, head, obstacle);
+               });
     storeFollowerParticles(frame, group, count, i, world, state);
     // Coordinate by coordinate: GCC copied the whole V3 through memory in halves, and the loads of
     // whole lanes that followed waited for them.

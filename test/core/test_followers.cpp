@@ -75,17 +75,18 @@ HairState wetNodRun(const HairModel& m, const SolverConfig& c, int frames) {
 }
 
 /// How far single precision may move a follower particle (updateFollowers places them in float
-/// lanes): each coordinate is rounded once from the guides' double sums, then a few times in the
-/// edge hold and the pose's matrix product, each rounding at most half an ulp of a coordinate.
-/// 8 unit round-offs (2^-24) per coordinate, over 3 coordinates, at scale_m, the largest
-/// coordinate of the scene (a position's norm plus the pose's translation).
+/// lanes, relative to the head's position): each coordinate is rounded once from the guides'
+/// double sums, then a few times in the edge hold and the pose's rotation, each rounding at most
+/// half an ulp of a coordinate. 8 unit round-offs (2^-24) per coordinate, over 3 coordinates, at
+/// scale_m, the largest distance of a particle from the head's position. The head's distance
+/// from the world's origin does not count: the translation is added in double.
 double placementRoundOff(double scale_m) { return 8.0 * std::sqrt(3.0) * 0x1p-24 * scale_m; }
 
-/// placementRoundOff at the scale of the state's positions under `pose`.
+/// placementRoundOff at the scale of the state's positions about the head's position under `pose`.
 double placementRoundOff(const HairState& s, const Pose& pose) {
   double largest = 0.0;
-  for (const Vec3& p : s.position) largest = std::max(largest, p.norm());
-  return placementRoundOff(largest + pose.translation.norm());
+  for (const Vec3& p : s.position) largest = std::max(largest, (p - pose.translation).norm());
+  return placementRoundOff(largest);
 }
 
 /// Every guide at its rest shape carried by `pose` (followers anywhere).
@@ -367,6 +368,41 @@ TEST(Followers, RigidHairStaysRigidWithTheHead) {
   for (int f = 0; f < 60; ++f) step(m, c, StepInputs{after, after}, kFrame, &t, nullptr);
   for (int i = 0; i < m.particleCount(); ++i)
     ASSERT_LT((after.applyInverse(t.position[i]) - m.rest_position_head[i]).norm(), 1e-6) << i;
+}
+
+TEST(Followers, FarFromTheWorldsOriginFollowersKeepTheirPrecision) {
+  // A head 2 km from the world's origin (a robot in a large map): the float lanes hold world
+  // positions relative to the head, so rigid hair is as precise there as at the origin (a float
+  // world coordinate at 2 km holds only 120 um), and the clearance from a sphere in the hair
+  // holds to the same round-off.
+  SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(100), 5, c);
+  Pose far;
+  far.rotation = Quat(Eigen::AngleAxisd(0.7, Vec3(0.3, -1.0, 0.2).normalized()));
+  far.translation = Vec3(1500.0, -1300.0, 25.0);
+  HairState s = makeState(m, far, Twist());
+  guidesAtRest(m, far, &s);
+  updateFollowers(m, c, far, nullptr, kFrame, 2, &s);
+  const double round_off = placementRoundOff(s, far);
+  ASSERT_LT(round_off, 1e-6);
+  for (int i = m.strand_offsets[m.followers.guide_strands]; i < m.particleCount(); ++i)
+    ASSERT_LT((s.position[i] - far.apply(m.rest_position_head[i])).norm(), round_off) << i;
+  Obstacles obstacles;
+  AnalyticObstacle sphere;  // 2 cm above the scalp, in the hair
+  sphere.center_m = far.apply(Vec3(0.0, 0.0, 0.17));
+  sphere.radius_m = 0.04;
+  obstacles.analytic.push_back(sphere);
+  updateFollowers(m, c, far, &obstacles, kFrame, 2, &s);
+  int pushed = 0;
+  for (int st = m.followers.guide_strands; st < m.strandCount(); ++st) {
+    for (int i = m.strandBegin(st) + 1; i < m.strandBegin(st) + m.strandSize(st); ++i) {
+      Vec3 normal;
+      const double to_sphere = obstacles.distance(s.position[i], &normal);
+      EXPECT_GE(to_sphere, c.obstacle.offset_m - round_off) << i;
+      pushed += to_sphere < c.obstacle.offset_m + 1e-6;
+    }
+  }
+  EXPECT_GT(pushed, 0) << "no follower reached the sphere: the test proves nothing";
 }
 
 TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
