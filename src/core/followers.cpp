@@ -305,12 +305,12 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
   return held;
 }
 
-/// The followers' lanes: 8 strands placed together in floats, one per lane (AVX2's width). The
+/// The followers' lanes: 8 strands placed together in floats, one per lane (one AVX2 register). The
 /// guides' samples are summed in double and rounded once into the lanes, so a follower's
 /// positions hold single precision, the precision of every output that carries them (~strands,
 /// .hair frames); no error accumulates, since each frame places them anew. On the first-
 /// generation EPYC (AVX2 on 128-bit units) 8 floats cost what 4 doubles did: the placement at
-/// 0.75-0.87x of lanes of 4 doubles (docs/followers.md).
+/// 0.80-0.92x of lanes of 4 doubles (docs/followers.md).
 using FollowerLane = LaneFloat8;
 constexpr int kFollowerLanes = kLaneWidth<FollowerLane>;
 
