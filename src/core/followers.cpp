@@ -188,6 +188,7 @@ bool buildFollowerModel(const Groom& groom, double rho, int follow_ratio, const 
   HairModel m;
   if (!buildModel(sorted, rho, head, config, &m, why)) return false;
   attachFollowers(guides, std::move(order), &m);
+  relayModelLanes(&m);  // the guides alone are simulated
   *model = std::move(m);
   return true;
 }

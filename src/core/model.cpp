@@ -210,6 +210,7 @@ bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::st
   HairModel updated = *model;
   allSpringConstants(config, true, &updated);
   if (!checkExplicitSubstep(updated, config, why)) return false;
+  relayModelLanes(&updated);
   *model = std::move(updated);
   return true;
 }
@@ -302,6 +303,7 @@ void buildModelUnchecked(const Groom& groom, double rho, const HeadShape& head,
   // the world gravity.
   if (config.sag_free) makeSagFree(config, config.gravity_m_s2, &m);
   m.cohesion_grid_nodes = cohesionGridNodeBound(m, config);
+  layModelLanes(config.integrator, &m);
   *model = std::move(m);
 }
 

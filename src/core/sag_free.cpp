@@ -86,6 +86,7 @@ void makeSagFree(const SolverConfig& config, const Vec3& g, HairModel* model, Sa
       ++local.edges;
     }
   }
+  relayModelLanes(model);
   if (stats) *stats = local;
 }
 

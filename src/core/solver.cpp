@@ -362,8 +362,7 @@ void advanceStrands(const HairModel& model, const SolverConfig& config, const So
     // same operations lane by lane, so the same result, on half the padding.
     const int active = width > 1 ? detail::blockStrands(model, first, width) : 0;
     if (active >= 2) {
-      const bool half = active <= width / 2 && (width == 16 || (width == 8 && !plan.lane_float));
-      run(half ? width / 2 : width, first, active);
+      run(detail::blockRunWidth(width, active, plan.lane_float), first, active);
     } else {
       for (int s = first; s < std::min(strands, first + width); ++s) run(1, s, 1);
     }

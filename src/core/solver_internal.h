@@ -110,6 +110,13 @@ constexpr int kMaxStrandLanes = 16;
 /// The strands from first_strand on (at most width, fewer in the last block) when they all have
 /// the same particle count (at least 2), so that they can run as one block; 0 when they cannot.
 int blockStrands(const HairModel& model, int first_strand, int width);
+/// The width a block of `active` strands (from blockStrands) runs at in a layout of `width`
+/// lanes: a partial block that fits in half the lanes of a layout that has a half (float16 to
+/// float8, double8 to double4) runs there, on half the padding.
+inline int blockRunWidth(int width, int active, bool lane_float) {
+  const bool half = active <= width / 2 && (width == 16 || (width == 8 && !lane_float));
+  return half ? width / 2 : width;
+}
 
 /// Substeps k_begin .. k_end - 1 of a step of nsub substeps for the block of `active` strands
 /// from first_strand (at most `width`; flags: one per lane, the padding lanes repeating the last

@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <type_traits>
 
+#include "model_lanes.h"
 #include "solver_internal.h"
 #include "wet_curly_hair/core/bend_gradient.h"
 #include "wet_curly_hair/core/block_tridiagonal.h"
@@ -37,7 +38,7 @@ namespace detail {
 /// The block's structure of arrays, carved from the thread's StrandScratch::lane_buffer.
 template <typename S>
 struct BlockArrays {
-  V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target, *local_target, *helix_edge;
+  V3<S>*p, *v, *f, *d, *b, *nu, *v_start, *rhs, *target;
   /// The forces of the parts the implicit solve holds (frame and filter gradients) at the start
   /// of the substep, kept for the corrector (correctGradientParts).
   V3<S>* held_force;
@@ -45,9 +46,14 @@ struct BlockArrays {
   /// Per particle: the cross-strand forces' own block of the implicit solve (hair contact,
   /// HairContactState::external_block), zero on lanes without one.
   M33<S>* external_block;
-  S *m, *inv_m, *rest, *core_rest, *sigma, *factor;
-  S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
-  S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
+  S *sigma, *factor;
+  /// The model's constants (ConstantLanes, model_lanes.h): where the model laid them
+  /// (HairModel::lanes), or gathered into constant_buffer at each step.
+  const S *m, *inv_m, *rest, *core_rest;
+  const S *stretch_k, *stretch_c;  ///< per edge (HairModel::stretch_k, stretch_c).
+  const S* rest_head_distance;     ///< per particle (HairModel::rest_head_distance_m).
+  const V3<S>*local_target, *helix_edge;
+  S* constant_buffer;  ///< room for a block's constants (constantLaneValues) when not laid.
   /// Per edge: axialLength of the edge and of the smoothed difference b, as elasticForces formed
   /// them for the stretch and core forces; the implicit terms reuse them (same positions).
   AxialLength<S>*edge_length, *core_length;
@@ -79,10 +85,11 @@ BlockArrays<S> carveBlockArrays(StrandScratch* scratch) {
   auto s1 = [&]() { return reinterpret_cast<S*>(take(1)); };
   BlockArrays<S> a;
   a.p = v3(), a.v = v3(), a.f = v3(), a.d = v3(), a.b = v3(), a.nu = v3(), a.v_start = v3();
-  a.rhs = v3(), a.target = v3(), a.local_target = v3(), a.helix_edge = v3(), a.held_force = v3();
+  a.rhs = v3(), a.target = v3(), a.held_force = v3();
   a.block = m3(), a.pivot_inverse = m3(), a.external_block = m3();
-  a.m = s1(), a.inv_m = s1(), a.rest = s1(), a.core_rest = s1(), a.sigma = s1(), a.factor = s1();
-  a.stretch_k = s1(), a.stretch_c = s1(), a.rest_head_distance = s1();
+  a.sigma = s1(), a.factor = s1();
+  // 13 lane values per particle hold constantLaneValues(n) = 3 n + 10 (n - 1).
+  a.constant_buffer = reinterpret_cast<S*>(take(13));
   a.edge_length = reinterpret_cast<AxialLength<S>*>(take(2));
   a.core_length = reinterpret_cast<AxialLength<S>*>(take(2));
   a.obstacle_anchor = v3(), a.obstacle_slack = s1(), a.p_carry = v3();
@@ -194,8 +201,9 @@ void planBlockStages(Block<S>& blk) {
   blk.obstacle_reach = std::max(config.obstacle.offset_m, config.adhesion.radius_m);
 }
 
-/// gatherBlock's copies of the state and the model's per-particle constants, array by array and
-/// lane by lane: each lane reads one strand's run of one array in order. Particle by particle
+/// gatherBlock's copies of the state, array by array and lane by lane (each lane reads one
+/// strand's run of one array in order), and the model's per-particle constants, read where the
+/// model laid them in lanes (HairModel::lanes) or copied the same way. Particle by particle
 /// (every lane's value of every array, 8 strands x 16 arrays read side by side) the gather and
 /// scatter cost 1.3x as much at 10,000 strands (AMD EPYC with AVX2, theta 1/240 s: 0.75-0.78
 /// against 0.59-0.60 s per simulated second on one thread, 0.81-1.14 against 0.62-0.66 CPU s on
@@ -206,23 +214,11 @@ void gatherArrays(Block<S>& blk) {
   const HairModel& model = blk.model;
   const HairState& state = *blk.state;
   constexpr int kWidth = Block<S>::kWidth;
-  const int n = blk.n, edges = blk.edges;
+  const int n = blk.n;
   for (int i = 0; i < n; ++i) {
     a.obstacle_slack[i] = splat<S>(-1.0);  // the distance caches start empty every step
     a.head_slack[i] = splat<S>(-1.0);
   }
-  auto scalars = [&](S* to, const double* from, int count) {
-    for (int l = 0; l < kWidth; ++l) {
-      const double* run = from + blk.begin[l];
-      for (int i = 0; i < count; ++i) setLaneValue(&to[i], l, run[i]);
-    }
-  };
-  auto vectors = [&](V3<S>* to, const Vec3* from, int count) {
-    for (int l = 0; l < kWidth; ++l) {
-      const Vec3* run = from + blk.begin[l];
-      for (int i = 0; i < count; ++i) setLane(&to[i], l, run[i]);
-    }
-  };
   // The carry starts as what rounding the position into the lane lost, and goes back out at the
   // scatter: the position keeps double's resolution from step to step.
   for (int l = 0; l < kWidth; ++l) {
@@ -238,17 +234,19 @@ void gatherArrays(Block<S>& blk) {
       setLaneValue(&a.p_carry[i].z, l, held.z() - relative.z());
     }
   }
-  vectors(a.v, state.velocity.data(), n);
-  scalars(a.sigma, state.saturation.data(), n);
-  scalars(a.m, model.mass_kg.data(), n);
-  scalars(a.inv_m, model.inv_mass.data(), n);
-  scalars(a.rest_head_distance, model.rest_head_distance_m.data(), n);
-  scalars(a.rest, model.rest_edge_m.data(), edges);
-  scalars(a.core_rest, model.core_rest_m.data(), edges);
-  scalars(a.stretch_k, model.stretch_k.data(), edges);
-  scalars(a.stretch_c, model.stretch_c.data(), edges);
-  vectors(a.local_target, model.bend_local_target.data(), edges);
-  vectors(a.helix_edge, model.helix_edge.data(), edges);
+  for (int l = 0; l < kWidth; ++l) {
+    const Vec3* velocity = state.velocity.data() + blk.begin[l];
+    const double* saturation = state.saturation.data() + blk.begin[l];
+    for (int i = 0; i < n; ++i) setLane(&a.v[i], l, velocity[i]);
+    for (int i = 0; i < n; ++i) setLaneValue(&a.sigma[i], l, saturation[i]);
+  }
+  // The constants where the model laid them (the same lanes to the bit), else gathered here.
+  const S* laid = laidConstantLanes<S>(model, blk.strand[0], n);
+  const ConstantLanes<S> c =
+      laid ? constantLanesAt(laid, n) : writeConstantLanes(model, blk.begin, n, a.constant_buffer);
+  a.m = c.m, a.inv_m = c.inv_m, a.rest_head_distance = c.rest_head_distance;
+  a.rest = c.rest, a.core_rest = c.core_rest, a.stretch_k = c.stretch_k, a.stretch_c = c.stretch_c;
+  a.local_target = c.local_target, a.helix_edge = c.helix_edge;
 }
 
 /// State and the model's per-particle constants into the lanes.

@@ -38,6 +38,29 @@ struct FollowerMap {
   Mat3List curl_turn;
 };
 
+/// The per-particle constants the strand-block stepper reads on every substep (mass_kg, inv_mass,
+/// rest_head_distance_m, rest_edge_m, core_rest_m, stretch_k, stretch_c, bend_local_target,
+/// helix_edge), copied block by block into the SIMD lanes of one layout, so that a step reads
+/// them where they lie instead of gathering 13 values per particle into its lanes
+/// (docs/performance.md, "The constants laid in lanes once"). Derived from those arrays, as
+/// MuJoCo's mj_setConst derives: layModelLanes makes it, every core function that changes them
+/// lays it again (buildModel, updateSpringConstants, makeSagFree, applyWaterMass,
+/// buildFollowerModel), and code that writes them by hand calls relayModelLanes afterwards. A
+/// block without laid lanes (another layout, a block of unequal strands, a partial block run at
+/// half width, width 0) is gathered at each step as before: the same lanes to the bit.
+struct ModelLanes {
+  struct alignas(64) Chunk {
+    unsigned char bytes[64];
+  };
+  int width = 0;       ///< strands per block; 0: nothing laid.
+  bool single = true;  ///< float lanes (else double).
+  /// Per block of `width` simulated strands: its first chunk, -1 when not laid, and the particle
+  /// count of its strands.
+  std::vector<int64_t> block_offset;
+  std::vector<int> block_particles;
+  std::vector<Chunk> chunks;
+};
+
 /// Constant model. Per-particle arrays are indexed by the global particle index; per-edge arrays
 /// too, by the edge's root-side particle (the slot of each strand's last particle is unused).
 struct HairModel {
@@ -92,6 +115,7 @@ struct HairModel {
   size_t cohesion_grid_nodes = 0;
 
   FollowerMap followers;  ///< guides and followers; empty when every strand is simulated.
+  ModelLanes lanes;       ///< derived: the stepper's constants in its lanes (layModelLanes).
 
   int strandCount() const { return static_cast<int>(strand_offsets.size()) - 1; }
   /// Strands the dynamics advances: the guides, or every strand when there are no followers.
@@ -126,6 +150,15 @@ bool checkExplicitSubstep(const HairModel& model, const SolverConfig& config, st
 /// for a rebuild then). Returns false with a reason on an invalid config or an explicit substep
 /// past the new constants' stability bound (checkExplicitSubstep), model unchanged.
 bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why);
+
+/// Lays model->lanes for the strand-block layout `integrator` resolves to (laneWidth, laneFloat;
+/// nothing with strand_lanes off): every full block of equal strands among the simulated ones,
+/// and a partial last block that runs at the full width.
+void layModelLanes(const IntegratorConfig& integrator, HairModel* model);
+
+/// Lays model->lanes again in the layout it already has (nothing when none is laid): after a
+/// change to the arrays it copies.
+void relayModelLanes(HairModel* model);
 
 /// The helix of eq. (6) for one strand: `count` points with chord `edge_m` (A9), radius and rise
 /// per turn from the curl config; a straight line along +z when the radius is 0.
