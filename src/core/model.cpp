@@ -210,7 +210,7 @@ bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::st
   HairModel updated = *model;
   allSpringConstants(config, true, &updated);
   if (!checkExplicitSubstep(updated, config, why)) return false;
-  relayModelLanes(&updated);
+  layModelLanes(config.integrator, &updated);  // in the layout the new config asks for
   *model = std::move(updated);
   return true;
 }

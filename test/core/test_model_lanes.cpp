@@ -139,6 +139,12 @@ TEST(ModelLanes, EveryCoreFunctionThatChangesTheConstantsLaysThemAgain) {
   ASSERT_TRUE(updateSpringConstants(stiffer, &model, &why)) << why;
   ASSERT_NE(model.stretch_k, k_before);
   EXPECT_TRUE(laidAfresh(model)) << "updateSpringConstants";
+  // A parameter request that changes the layout (the node's ~set_parameters without a rebuild)
+  // lays the lanes in the new one.
+  stiffer.integrator.lane_layout = "float16";
+  ASSERT_TRUE(updateSpringConstants(stiffer, &model, &why)) << why;
+  EXPECT_EQ(model.lanes.width, 16);
+  EXPECT_TRUE(laidAfresh(model)) << "updateSpringConstants, float16";
 
   const std::vector<double> rest_before = model.rest_edge_m;
   makeSagFree(stiffer, Vec3(0.0, 0.0, -9.81), &model, nullptr);

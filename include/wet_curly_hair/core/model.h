@@ -148,7 +148,8 @@ bool checkExplicitSubstep(const HairModel& model, const SolverConfig& config, st
 /// change that does not rebuild the model (stiffness, damping, curl weight) applies. Without
 /// sag-free only: the sag-free rest state depends on the stiffnesses (io::applyParameters asks
 /// for a rebuild then). Returns false with a reason on an invalid config or an explicit substep
-/// past the new constants' stability bound (checkExplicitSubstep), model unchanged.
+/// past the new constants' stability bound (checkExplicitSubstep), model unchanged. Lays the
+/// model's lanes (layModelLanes) in the layout config.integrator asks for.
 bool updateSpringConstants(const SolverConfig& config, HairModel* model, std::string* why);
 
 /// Lays model->lanes for the strand-block layout `integrator` resolves to (laneWidth, laneFloat;
