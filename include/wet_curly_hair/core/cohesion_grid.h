@@ -37,14 +37,12 @@ constexpr size_t kMaxCohesionGridNodes = size_t{1} << 23;
 /// weighted 0.
 constexpr size_t kCohesionGridPadding = 8;
 
-/// Lanes of one register of floats: the float own-strand sums and the packed gathers use it, and
-/// the float per-particle arrays carry as many particles past the last one for the last strand's
-/// lanes.
-#ifdef __AVX512F__
-constexpr int kCohesionFloatLanes = 16;
-#else
+/// Lanes of floats per vector: the float own-strand sums and the packed gathers use it, and the
+/// float per-particle arrays carry as many particles past the last one for the last strand's
+/// lanes. 8 (one AVX2 register) on every build: on a fourth-generation AMD EPYC (Zen 4, AVX-512)
+/// the display pass cost 0.89-0.90x on one thread and 0.92-0.94x on two with 8 lanes against 16
+/// (docs/physics.md §7.3).
 constexpr int kCohesionFloatLanes = 8;
-#endif
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
 /// strand's (strain-limited) length of its root, and the roots within their rest bounding
