@@ -45,9 +45,11 @@ ConstantLanes<S> constantLanesAt(const S* base, int n) {
 
 /// Writes the constants of the strands whose runs start at begin[0 .. width) (n particles each)
 /// to out[0 .. constantLaneValues(n)), array by array and lane by lane (each lane reads one
-/// strand's run of one array in order), and returns where each array landed.
+/// strand's run of one array in order), and returns where each array landed. `masses_only`:
+/// the mass and its inverse alone (the rest already there).
 template <typename S>
-ConstantLanes<S> writeConstantLanes(const HairModel& model, const int* begin, int n, S* out) {
+ConstantLanes<S> writeConstantLanes(const HairModel& model, const int* begin, int n, S* out,
+                                    bool masses_only = false) {
   constexpr int kWidth = kLaneWidth<S>;
   const int edges = n - 1;
   const ConstantLanes<S> c = constantLanesAt(out, n);
@@ -68,6 +70,7 @@ ConstantLanes<S> writeConstantLanes(const HairModel& model, const int* begin, in
   };
   scalars(c.m, model.mass_kg.data(), n);
   scalars(c.inv_m, model.inv_mass.data(), n);
+  if (masses_only) return c;
   scalars(c.rest_head_distance, model.rest_head_distance_m.data(), n);
   scalars(c.rest, model.rest_edge_m.data(), edges);
   scalars(c.core_rest, model.core_rest_m.data(), edges);

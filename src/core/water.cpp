@@ -414,7 +414,7 @@ void applyWaterMass(const HairState& state, HairModel* model) {
       model->inv_mass[i] = i == begin ? 0.0 : 1.0 / model->mass_kg[i];
     }
   }
-  relayModelLanes(model);
+  relayModelMassLanes(model);
 }
 
 double heldWater(const HairState& state) {
