@@ -513,7 +513,7 @@ WCH_INLINE void storeFollowerParticles(const PlacementFrame& frame, const Follow
     const Vec3 w = lane(world_from_head, l) + frame.pose.translation;
     Vec3& p = state->position[group[l].begin + i];
     state->velocity[group[l].begin + i] = frame.inverse_dt * (w - p);
-    p = w;  // last_good_*: the repairs restore guides only; followers are placed anew
+    p = w;
   }
 }
 

@@ -67,6 +67,7 @@ void StepStats::accumulate(const StepStats& o) {
   nonfinite_repairs += o.nonfinite_repairs;
   nonfinite_values += o.nonfinite_values;
   strain_repairs += o.strain_repairs;
+  rest_shape_repairs += o.rest_shape_repairs;
   curl_particle_substeps += o.curl_particle_substeps;
   adhesion_particle_substeps += o.adhesion_particle_substeps;
   adhesion_active += o.adhesion_active;
@@ -155,11 +156,11 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, const
 }
 
 bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
-                    const HairState& state) {
+                    const Vec3* position) {
   const int begin = model.strandBegin(s);
   const int edges = model.strandSize(s) - 1;
   const double bound = 1.0 + 3.0 * config.stretch.strain_limit;
-  const double* __restrict p = state.position[begin].data();
+  const double* __restrict p = position->data();
   const double* __restrict rest = &model.rest_edge_m[begin];
   // Squared lengths against squared bounds, counted without a branch per edge (a NaN length
   // counts none: the finiteness check catches it); a square root per edge, waited on, cost 1.7 %
@@ -172,6 +173,11 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
     too_long += dx * dx + dy * dy + dz * dz > longest * longest;
   }
   return too_long == 0;
+}
+
+bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
+                    const HairState& state) {
+  return strandStrainOk(model, config, s, &state.position[model.strandBegin(s)]);
 }
 
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h) {
@@ -209,12 +215,9 @@ uint64_t countNonfinite(const Vec3* v, int n) {
   return count;
 }
 
-/// True when every position and velocity of the strand is finite; counts non-finite scalars.
-bool strandFinite(const HairModel& model, int s, const HairState& state, uint64_t* nonfinite) {
-  const int begin = model.strandBegin(s);
-  const int n = model.strandSize(s);
-  const uint64_t count =
-      countNonfinite(&state.position[begin], n) + countNonfinite(&state.velocity[begin], n);
+/// True when the n positions and velocities are all finite; counts non-finite scalars.
+bool strandFinite(const Vec3* position, const Vec3* velocity, int n, uint64_t* nonfinite) {
+  const uint64_t count = countNonfinite(position, n) + countNonfinite(velocity, n);
   *nonfinite += count;
   return count == 0;
 }
@@ -239,39 +242,49 @@ StrandFlags strandFlags(const HairModel& model, const SolverConfig& config,
   return flags;
 }
 
-/// Restores strand s to its last good state, carried from the start pose to the end pose.
-void repairStrand(const HairModel& model, const StepInputs& inputs, int s, HairState* state) {
+/// Restores strand s, whose step went wrong, from the state it started the step from (still in
+/// `state`: the step's result was never written there), carried rigidly by the head from `from`
+/// to `to`. Where that state is itself unhealthy (a caller wrote it between steps), the strand
+/// takes its rest shape carried by the head instead, moving with the head (elapsed_s from `from`
+/// to `to`). Returns whether it fell back to the rest shape.
+bool restoreStrand(const HairModel& model, const SolverConfig& config, const Pose& from,
+                   const Pose& to, double elapsed_s, int s, HairState* state) {
   const int begin = model.strandBegin(s);
   const int n = model.strandSize(s);
-  const Pose& now = inputs.head_end;
-  const Pose& before = inputs.head_start;
-  for (int i = begin; i < begin + n; ++i) {
-    const Vec3 x_head = before.applyInverse(state->last_good_position[i]);
-    state->position[i] = now.apply(x_head);
-    state->velocity[i] = now.rotate(before.rotation.conjugate() * state->last_good_velocity[i]);
-    state->last_good_position[i] = state->position[i];
-    state->last_good_velocity[i] = state->velocity[i];
+  Vec3* position = &state->position[begin];
+  Vec3* velocity = &state->velocity[begin];
+  uint64_t ignored = 0;
+  const bool start_healthy = strandFinite(position, velocity, n, &ignored) &&
+                             detail::strandStrainOk(model, config, s, position);
+  for (int i = 0; i < n; ++i) {
+    if (start_healthy) {
+      position[i] = to.apply(from.applyInverse(position[i]));
+      velocity[i] = to.rotate(from.rotation.conjugate() * velocity[i]);
+    } else {
+      const Vec3& rest = model.rest_position_head[begin + i];
+      position[i] = to.apply(rest);
+      velocity[i] = (position[i] - from.apply(rest)) / elapsed_s;
+    }
   }
+  return !start_healthy;
 }
 
 }  // namespace
 
-void detail::checkStrandAfterStep(const HairModel& model, const SolverConfig& config,
-                                  const StepInputs& inputs, int s, HairState* state,
-                                  StepStats* stats) {
-  uint64_t nonfinite = 0;
-  const bool finite = strandFinite(model, s, *state, &nonfinite);
-  const bool strain_ok = finite && strandStrainOk(model, config, s, *state);
-  const int begin = model.strandBegin(s);
+void detail::commitStrandAfterStep(const HairModel& model, const SolverConfig& config,
+                                   const Pose& from, const Pose& to, double elapsed_s, int s,
+                                   const Vec3* position, const Vec3* velocity, HairState* state,
+                                   StepStats* stats) {
   const int n = model.strandSize(s);
-  if (finite && strain_ok) {
-    std::memcpy(state->last_good_position[begin].data(), state->position[begin].data(),
-                n * sizeof(Vec3));
-    std::memcpy(state->last_good_velocity[begin].data(), state->velocity[begin].data(),
-                n * sizeof(Vec3));
+  uint64_t nonfinite = 0;
+  const bool finite = strandFinite(position, velocity, n, &nonfinite);
+  if (finite && detail::strandStrainOk(model, config, s, position)) {
+    const int begin = model.strandBegin(s);
+    std::memcpy(state->position[begin].data(), position->data(), n * sizeof(Vec3));
+    std::memcpy(state->velocity[begin].data(), velocity->data(), n * sizeof(Vec3));
     return;
   }
-  repairStrand(model, inputs, s, state);
+  stats->rest_shape_repairs += restoreStrand(model, config, from, to, elapsed_s, s, state);
   ++stats->repaired_strands;
   if (!finite) {
     ++stats->nonfinite_repairs;
@@ -300,8 +313,6 @@ StepInputs carryHairThroughHeadJump(const HairModel& model, const SolverConfig& 
   for (int i = 0; i < model.particleCount(); ++i) {
     state->position[i] = jump.apply(state->position[i]);
     state->velocity[i] = jump.rotation * state->velocity[i];
-    state->last_good_position[i] = jump.apply(state->last_good_position[i]);
-    state->last_good_velocity[i] = jump.rotation * state->last_good_velocity[i];
   }
   for (int s = 0; s < model.strandCount(); ++s)
     state->curl_rotation[s] = (jump.rotation * state->curl_rotation[s]).normalized();
@@ -467,6 +478,7 @@ void step(const HairModel& model, const SolverConfig& config, const StepInputs& 
   state->warnings.nonfinite_repairs += local.nonfinite_repairs;
   state->warnings.nonfinite_values += local.nonfinite_values;
   state->warnings.strain_repairs += local.strain_repairs;
+  state->warnings.rest_shape_repairs += local.rest_shape_repairs;
   double lap = in.clock ? in.clock() : 0.0;
   if (model.followers.guide_strands > 0) {
     updateFollowers(model, config, in.head_end, in.obstacles, dt_s, threads, state);

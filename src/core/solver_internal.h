@@ -63,20 +63,27 @@ struct SolverPlan {
 };
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h);
 
-/// False when an edge of strand s is longer than 3x the strain limit allows: the post-step check
-/// (checkStrandAfterStep) then restores the strand to its last good state and counts a strain
-/// repair.
+/// False when an edge of strand s, at the positions `position` (its n particles), is longer than
+/// 3x the strain limit allows: the post-step check (commitStrandAfterStep) then restores the
+/// strand and counts a strain repair.
+bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
+                    const Vec3* position);
+/// strandStrainOk at the state's positions.
 bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
                     const HairState& state);
 
-/// Strand s after the step's last substep: kept as the last good state when healthy, else
-/// restored to that state carried by the head from inputs.head_start to inputs.head_end (a
-/// non-finite value, or a strain beyond 3x the limit) and counted in `stats`. The strand-block
-/// stepper runs it right after its scatter, while the strands are still in cache, rather than as
-/// a pass of its own over the whole state: the same verdicts, at 0.99x the wall of a two-thread
-/// step at 10,000 strands (most of its cost is the copy to the last good state, either way).
-void checkStrandAfterStep(const HairModel& model, const SolverConfig& config,
-                          const StepInputs& inputs, int s, HairState* state, StepStats* stats);
+/// Strand s after the step's last substep, its positions and velocities not yet in the state
+/// (`position`, `velocity`: its n particles). Written to the state when healthy. Otherwise (a
+/// non-finite value, or a strain beyond 3x the limit) counted in `stats`, and the strand restored
+/// from the state, which still holds what it started from at pose `from`: carried rigidly by the
+/// head to `to`, or, where that starting state fails the same check (a caller wrote it between
+/// steps), its rest shape carried by the head, with the head's velocity over elapsed_s. So the
+/// restore point costs no copy: the last good state, copied for every strand at every step, was
+/// about 4 % of a two-thread step at 10,000 strands. The strand-block stepper runs it on each
+/// strand of a block right after converting it from the lanes, while it is in cache.
+void commitStrandAfterStep(const HairModel& model, const SolverConfig& config, const Pose& from,
+                           const Pose& to, double elapsed_s, int s, const Vec3* position,
+                           const Vec3* velocity, HairState* state, StepStats* stats);
 
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
 /// (the eq. 13 velocity factors), from the state's kept factors where their inputs are unchanged
@@ -106,6 +113,7 @@ bool stiffnessActive(const SolverConfig& config, const StrandFlags& flags);
 
 /// The widest block of strands advanced together, one per SIMD lane.
 constexpr int kMaxStrandLanes = 16;
+static_assert(kMaxStrandLanes <= StrandScratch::kBlockStrands, "a block's strands fit the scratch");
 
 /// The strands from first_strand on (at most width, fewer in the last block) when they all have
 /// the same particle count (at least 2), so that they can run as one block; 0 when they cannot.

@@ -20,6 +20,8 @@ void StrandScratch::resize(int n) {
   // most 64 bytes (8 doubles or 16 floats), then two 3-vectors of doubles for one lane, plus
   // alignment slack.
   lane_capacity = n;
+  step_position.assign(static_cast<size_t>(kBlockStrands) * n, Vec3::Zero());
+  step_velocity.assign(static_cast<size_t>(kBlockStrands) * n, Vec3::Zero());
   lane_buffer.assign(static_cast<size_t>(n) * ((15 * 3 + 3 * 9 + 11 + 2 * 2) * 8 + 2 * 3) + 16,
                      0.0);
 }
@@ -87,8 +89,6 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
                                   ? helixToHairQuaternion(model.helix_axis[s], axis.normalized())
                                   : Quat::Identity();
   }
-  state->last_good_position = state->position;
-  state->last_good_velocity = state->velocity;
   // The followers' exaggerated rest shapes are computed again at the next placement.
   std::fill(state->follower_rest_saturation.begin(), state->follower_rest_saturation.end(),
             std::numeric_limits<double>::quiet_NaN());

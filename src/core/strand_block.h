@@ -265,29 +265,35 @@ void gatherBlock(Block<S>& blk) {
   gatherArrays(blk);
 }
 
-/// The lanes back into the state.
+/// Lane l's strand out of the lanes, as the state holds it: world positions and velocities in
+/// double, into p and v (blk.n each).
+template <typename S>
+void scatterLane(const Block<S>& blk, int l, Vec3* p, Vec3* v) {
+  const BlockArrays<S>& a = blk.a;
+  for (int i = 0; i < blk.n; ++i) {
+    p[i] = (lane(a.p[i], l) - lane(a.p_carry[i], l)) + blk.origin;
+    v[i] = lane(a.v[i], l);
+  }
+  if constexpr (Block<S>::kFloat) {
+    // The limit holds to float's resolution in the lanes (a position to ~2^-24 of its distance
+    // from the head, 1e-8 m, is 2e-6 of an 8 mm edge): the scatter applies it once more in
+    // double, root to tip, so that no output edge is longer than the limit. A projection by at
+    // most that resolution: positions only, the velocities are the dynamics'.
+    const double* rest = &blk.model.rest_edge_m[blk.begin[l]];
+    for (int i = 0; i < blk.edges; ++i)
+      p[i + 1] +=
+          limitEdgeLength(p[i], p[i + 1], (1.0 + blk.config.stretch.strain_limit) * rest[i]);
+  }
+}
+
+/// The lanes into the scratch (StrandScratch::step_position), strand after strand, where the
+/// post-step check reads them before they reach the state (commitStrandAfterStep).
 template <typename S>
 void scatterBlock(Block<S>& blk) {
-  const BlockArrays<S>& a = blk.a;
-  HairState* state = blk.state;
-  for (int l = 0; l < blk.active; ++l) {
-    const int begin = blk.begin[l];
-    for (int i = 0; i < blk.n; ++i) {
-      state->position[begin + i] = (lane(a.p[i], l) - lane(a.p_carry[i], l)) + blk.origin;
-      state->velocity[begin + i] = lane(a.v[i], l);
-    }
-    if constexpr (Block<S>::kFloat) {
-      // The limit holds to float's resolution in the lanes (a position to ~2^-24 of its
-      // distance from the head, 1e-8 m, is 2e-6 of an 8 mm edge): the scatter applies it once
-      // more in double, root to tip, so that no output edge is longer than the limit. A
-      // projection by at most that resolution: positions only, the velocities are the dynamics'.
-      Vec3* p = &state->position[begin];
-      const double* rest = &blk.model.rest_edge_m[begin];
-      for (int i = 0; i < blk.edges; ++i)
-        p[i + 1] +=
-            limitEdgeLength(p[i], p[i + 1], (1.0 + blk.config.stretch.strain_limit) * rest[i]);
-    }
-  }
+  StrandScratch& scr = *blk.scratch;
+  for (int l = 0; l < blk.active; ++l)
+    scatterLane(blk, l, &scr.step_position[size_t(l) * blk.n],
+                &scr.step_velocity[size_t(l) * blk.n]);
 }
 
 // ------------------------------------------------------------------ the stages of a substep
@@ -923,11 +929,23 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
   laps.skip();  // the substeps charged their own stages
   scatterBlock(blk);
   laps.lap(kStageLanes, 0);
-  if (k_end == nsub) {  // the step's last substep: the post-step check, the strands in cache
-    for (int l = 0; l < active; ++l)
-      checkStrandAfterStep(model, config, inputs, blk.strand[l], state, stats);
-    laps.lap(kStageRepair, uint64_t(blk.n) * active);
-  }
+  // The post-step check, the strands in cache. The state still holds what the block started
+  // from, at the start of substep k_begin: each strand goes there when healthy, else is restored
+  // from it (with coupled strands, which step a substep at a time, every substep is checked).
+  const Pose from =
+      k_begin == 0
+          ? inputs.head_start
+          : substepMotion(inputs, double(k_begin) / nsub, double(k_begin + 1) / nsub, h).pose0;
+  const Pose to =
+      k_end == nsub
+          ? inputs.head_end
+          : substepMotion(inputs, double(k_end - 1) / nsub, double(k_end) / nsub, h).pose1;
+  const StrandScratch& scr = *blk.scratch;
+  for (int l = 0; l < active; ++l)
+    commitStrandAfterStep(model, config, from, to, (k_end - k_begin) * h, blk.strand[l],
+                          &scr.step_position[size_t(l) * blk.n],
+                          &scr.step_velocity[size_t(l) * blk.n], state, stats);
+  laps.lap(kStageRepair, uint64_t(blk.n) * active);
   double largest = laneValue(blk.max_strain, 0);
   for (int l = 1; l < active; ++l) largest = std::max(largest, laneValue(blk.max_strain, l));
   return largest;

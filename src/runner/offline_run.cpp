@@ -69,6 +69,7 @@ std::string RunSummary::toJson() const {
       .add("max_strain_before_limit", max_strain_before_limit)
       .add("max_penetration_m", max_penetration_m)
       .add("repairs", static_cast<unsigned long long>(repairs))
+      .add("rest_shape_repairs", static_cast<unsigned long long>(rest_shape_repairs))
       .add("head_jumps", static_cast<unsigned long long>(head_jumps))
       .add("nonfinite_values", static_cast<unsigned long long>(nonfinite_values))
       .add("finite", finite)
@@ -701,6 +702,7 @@ void finishSummary(const HairModel& model, const HairState& state, double sim_s,
   s->sim_s = sim_s;
   s->wall_s = wall_s;
   s->repairs = state.warnings.total();
+  s->rest_shape_repairs = state.warnings.rest_shape_repairs;
   s->head_jumps = state.warnings.head_jumps;
   s->hair_contact_overflows = state.warnings.hair_contact_overflows;
   s->nonfinite_values = state.warnings.nonfinite_values;

@@ -9,6 +9,7 @@
 #include <limits>
 #include <string>
 
+#include "../../src/core/solver_internal.h"
 #include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/smoothing.h"
@@ -475,6 +476,95 @@ TEST(Solver, NonFiniteStrandIsRepairedAndCountedAlone) {
   }
 }
 
+/// The head moving between two poses over a frame: 5 mm along x and 0.05 rad about z, well under
+/// the teleport bounds.
+StepInputs movingHead() {
+  StepInputs in;
+  in.head_end.translation = Vec3(0.005, 0.0, 0.0);
+  in.head_end.rotation = Quat(Eigen::AngleAxisd(0.05, Vec3::UnitZ()));
+  return in;
+}
+
+TEST(Solver, StrandThatBlowsUpRestartsFromWhereItStartedCarriedByTheHead) {
+  // A NaN stretch stiffness in strand 2 (the state healthy, the step's result not): the strand
+  // takes the state it started the step from, carried rigidly from the start pose to the end
+  // pose, to the bit; the other strands step as if nothing happened.
+  for (int threads : {1, 2}) {
+    SolverConfig c;
+    c.integrator.threads = threads;
+    const HairModel m = makeModel(curlyGroom(4), c);
+    HairModel broken = m;
+    broken.stretch_k[broken.strandBegin(2) + 5] = std::nan("");
+    relayModelLanes(&broken);
+    HairState s = makeState(m, Pose(), Twist());
+    StepStats stats;
+    step(m, c, StepInputs(), kFrame, &s, &stats);  // a step in, so that v is not the rest's
+    HairState reference = s;
+    const HairState start = s;
+    const StepInputs in = movingHead();
+    StepStats repaired;
+    step(broken, c, in, kFrame, &s, &repaired);
+    step(m, c, in, kFrame, &reference, &stats);
+    EXPECT_EQ(repaired.repaired_strands, 1u) << threads;
+    EXPECT_EQ(repaired.nonfinite_repairs, 1u) << threads;
+    EXPECT_EQ(repaired.rest_shape_repairs, 0u) << threads;
+    for (int i = m.strandBegin(2); i < m.strandBegin(2) + m.strandSize(2); ++i) {
+      EXPECT_EQ(s.position[i], in.head_end.apply(in.head_start.applyInverse(start.position[i])));
+      EXPECT_EQ(s.velocity[i],
+                in.head_end.rotate(in.head_start.rotation.conjugate() * start.velocity[i]));
+    }
+    for (int st : {0, 1, 3})
+      for (int i = m.strandBegin(st); i < m.strandBegin(st) + m.strandSize(st); ++i) {
+        EXPECT_EQ(s.position[i], reference.position[i]) << threads;
+        EXPECT_EQ(s.velocity[i], reference.velocity[i]) << threads;
+      }
+  }
+}
+
+TEST(Solver, StrandWrittenUnhealthyBetweenStepsTakesItsRestShape) {
+  // A caller's NaN in strand 1's state: nothing healthy to restart from, so the strand takes its
+  // rest shape carried by the head, moving with it, counted apart.
+  SolverConfig c;
+  const HairModel m = makeModel(curlyGroom(4), c);
+  HairState s = makeState(m, Pose(), Twist());
+  StepStats stats;
+  step(m, c, StepInputs(), kFrame, &s, &stats);
+  s.velocity[m.strandBegin(1) + 5] = Vec3(std::nan(""), 0, 0);
+  const StepInputs in = movingHead();
+  StepStats repaired;
+  step(m, c, in, kFrame, &s, &repaired);
+  EXPECT_EQ(repaired.repaired_strands, 1u);
+  EXPECT_EQ(repaired.rest_shape_repairs, 1u);
+  EXPECT_EQ(s.warnings.rest_shape_repairs, 1u);
+  for (int i = m.strandBegin(1); i < m.strandBegin(1) + m.strandSize(1); ++i) {
+    const Vec3& rest = m.rest_position_head[i];
+    EXPECT_EQ(s.position[i], in.head_end.apply(rest));
+    EXPECT_EQ(s.velocity[i], (in.head_end.apply(rest) - in.head_start.apply(rest)) / kFrame);
+  }
+}
+
+TEST(Solver, CoupledStrandThatBlowsUpRestartsFromItsLastSubstepsStart) {
+  // With hair contact the strands step a substep at a time and the last one is checked: the
+  // broken strand restarts, healthy, from where that substep started (not its rest shape).
+  SolverConfig c;
+  c.hair_contact.enabled = true;
+  c.integrator.substep_s = kFrame / 3.0;
+  const HairModel m = makeModel(curlyGroom(4), c);
+  HairModel broken = m;
+  broken.stretch_k[broken.strandBegin(2) + 5] = std::nan("");
+  relayModelLanes(&broken);
+  HairState s = makeState(m, Pose(), Twist());
+  StepStats stats;
+  step(m, c, StepInputs(), kFrame, &s, &stats);
+  StepStats repaired;
+  step(broken, c, movingHead(), kFrame, &s, &repaired);
+  EXPECT_GE(repaired.repaired_strands, 1u);
+  EXPECT_EQ(repaired.rest_shape_repairs, 0u);
+  for (const Vec3& p : s.position) EXPECT_TRUE(p.allFinite());
+  for (const Vec3& v : s.velocity) EXPECT_TRUE(v.allFinite());
+  for (int st = 0; st < m.strandCount(); ++st) EXPECT_TRUE(detail::strandStrainOk(m, c, st, s));
+}
+
 TEST(Solver, SubstepsSplitTheFrameEvenly) {
   SolverConfig c;
   c.integrator.substep_s = 2e-4;
@@ -626,7 +716,6 @@ struct ChordCase {
     // 0.3 rad down the sphere from the root (chord ~3 cm), 5 mm under the surface.
     const double phi = 0.3;
     state.position[1] = (kRadius - 0.005) * Vec3(std::sin(phi), 0, std::cos(phi));
-    state.last_good_position[1] = state.position[1];
   }
   double surfaceDistance() const {
     Vec3 n;

@@ -61,10 +61,13 @@ struct StepStats {
   uint64_t head_contacts = 0;            ///< particle-substeps in contact with the head.
   /// Extra collision + strain-limit rounds run (strand-substeps x rounds; CollisionConfig).
   uint64_t constraint_rounds = 0;
-  /// Strands restored to their last good state after the step (the post-step check): those with
-  /// a non-finite position or velocity plus those with an edge beyond 3x the strain limit, and
-  /// the non-finite scalars the first held.
+  /// Strands restored after the step (the post-step check, step()): those with a non-finite
+  /// position or velocity plus those with an edge beyond 3x the strain limit, and the non-finite
+  /// scalars the first held.
   uint64_t repaired_strands = 0, nonfinite_repairs = 0, strain_repairs = 0, nonfinite_values = 0;
+  /// Of the repaired strands, those given their rest shape: the state they started the step from
+  /// failed the same check (written so by a caller between steps).
+  uint64_t rest_shape_repairs = 0;
   uint64_t head_jumps = 0;  ///< 1 when this step's head motion was taken as a jump.
   // What ran, per stage ("model only what a scene needs"): particle-substeps or particles.
   uint64_t curl_particle_substeps = 0;      ///< curl exaggeration (wet strands only).
@@ -101,7 +104,11 @@ int dampingPassCount(const HairModel& model, const SolverConfig& config, double 
 
 /// Advances the state by dt_s (one output frame, split into equal substeps). Nothing is allocated.
 /// After the step, each strand with a non-finite value or a strain beyond 3x the limit is
-/// restored to its last good state and counted (state->warnings, stats->repaired_strands).
+/// restored to the state it started the step from, carried rigidly by the head, and counted
+/// (state->warnings, stats->repaired_strands); a strand whose starting state fails the same check
+/// (a caller wrote it so between steps) takes its rest shape carried by the head instead
+/// (stats->rest_shape_repairs). Where strands are coupled (hair contact, the force-based cohesion
+/// baselines) the step's last substep is checked, and its starting state restored.
 void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
           HairState* state, StepStats* stats);
 

@@ -14,8 +14,11 @@ namespace wet_curly_hair {
 struct WarningStats {
   uint64_t nonfinite_repairs = 0;  ///< strands restored because a value went NaN/Inf.
   uint64_t strain_repairs = 0;     ///< strands restored because strain ran past the bound.
-  uint64_t nonfinite_values = 0;   ///< non-finite scalars found before those repairs.
-  uint64_t head_jumps = 0;         ///< steps whose head motion was taken as a jump (teleport).
+  /// Of those, strands given their rest shape: the state they started the step from failed the
+  /// same check (a caller wrote it so between steps).
+  uint64_t rest_shape_repairs = 0;
+  uint64_t nonfinite_values = 0;  ///< non-finite scalars found before those repairs.
+  uint64_t head_jumps = 0;        ///< steps whose head motion was taken as a jump (teleport).
   /// Steps whose "grid" cohesion evaluation fell back to "exact": the hair's bounding box needed
   /// more lattice nodes than were preallocated (HairModel::cohesion_grid_nodes).
   uint64_t cohesion_grid_fallbacks = 0;
@@ -55,6 +58,11 @@ struct StrandScratch {
   /// block of strands in SIMD lanes), for strands of up to lane_capacity particles.
   std::vector<double> lane_buffer;
   int lane_capacity = 0;
+  /// The block's strands after the step's last substep, strand after strand (lane_capacity
+  /// particles each, up to kBlockStrands strands), checked here before they are written to the
+  /// state (commitStrandAfterStep).
+  static constexpr int kBlockStrands = 16;
+  Vec3List step_position, step_velocity;
   void resize(int max_strand_size);
 };
 
@@ -211,8 +219,6 @@ struct HairState {
   /// simulated time (NaN: none since the state was made or reset).
   Vec3List display_offset;
   double display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
-  Vec3List last_good_position;  ///< per particle, at the end of the last healthy step.
-  Vec3List last_good_velocity;
   /// Per strand: the last well-defined M of eq. (7) (A8), a unit quaternion (the filter of
   /// CurlConfig::rotation_time_constant_s slerps it).
   std::vector<Quat> curl_rotation;

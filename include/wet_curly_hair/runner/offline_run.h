@@ -100,6 +100,7 @@ struct RunSummary {
   double max_strain_before_limit = 0.0;  ///< largest strain before the limiter projected it.
   double max_penetration_m = 0.0;        ///< deepest penetration into the head at any frame.
   uint64_t repairs = 0;
+  uint64_t rest_shape_repairs = 0;  ///< of those, strands given their rest shape (WarningStats)
   uint64_t head_jumps = 0;  ///< steps whose head motion was a jump (teleport) carrying the hair
   uint64_t nonfinite_values = 0;
   bool finite = true;
