@@ -539,7 +539,9 @@ TEST(Solver, StrandWrittenUnhealthyBetweenStepsTakesItsRestShape) {
   for (int i = m.strandBegin(1); i < m.strandBegin(1) + m.strandSize(1); ++i) {
     const Vec3& rest = m.rest_position_head[i];
     EXPECT_EQ(s.position[i], in.head_end.apply(rest));
-    EXPECT_EQ(s.velocity[i], (in.head_end.apply(rest) - in.head_start.apply(rest)) / kFrame);
+    // The head's velocity over the frame (its substeps' total length: kFrame to round-off).
+    const Vec3 carried = (in.head_end.apply(rest) - in.head_start.apply(rest)) / kFrame;
+    EXPECT_LT((s.velocity[i] - carried).norm(), 1e-12 * carried.norm());
   }
 }
 
