@@ -164,6 +164,28 @@ constexpr int maskWidth() {
     return static_cast<int>(sizeof(M) / sizeof(std::declval<M>()[0]));
 }
 
+/// Per-lane counts of set mask lanes, kept as an integer vector (a set lane is -1, so subtracting
+/// the mask adds 1 where it is set): a row's contacts counted in one vector operation instead of
+/// a scalar loop over the lanes. For S = double (one lane) a plain count.
+template <typename S, typename = void>
+struct LaneCounts {
+  LaneMask<S> count = {};
+  WCH_INLINE void add(const LaneMask<S>& m) { count -= m; }
+  WCH_INLINE uint64_t lane(int l) const { return static_cast<uint64_t>(count[l]); }
+  WCH_INLINE uint64_t total() const {
+    uint64_t t = 0;
+    for (int l = 0; l < kLaneWidth<S>; ++l) t += lane(l);
+    return t;
+  }
+};
+template <typename S>
+struct LaneCounts<S, std::enable_if_t<std::is_floating_point<S>::value>> {
+  uint64_t count = 0;
+  WCH_INLINE void add(bool m) { count += m; }
+  WCH_INLINE uint64_t lane(int) const { return count; }
+  WCH_INLINE uint64_t total() const { return count; }
+};
+
 /// Calls fix(l) for every lane l whose mask is set (the scalar form of a rare branch).
 template <typename M, typename F>
 WCH_INLINE void patchLanes(const M& rare, F&& fix) {
