@@ -58,7 +58,7 @@ struct StrandScratch {
   /// block of strands in SIMD lanes), for strands of up to lane_capacity particles.
   std::vector<double> lane_buffer;
   int lane_capacity = 0;
-  /// The block's strands after the step's last substep, strand after strand (lane_capacity
+  /// A block's strands out of the lanes after its substeps, strand after strand (lane_capacity
   /// particles each, up to kBlockStrands strands), checked here before they are written to the
   /// state (commitStrandAfterStep).
   static constexpr int kBlockStrands = 16;
