@@ -72,7 +72,8 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
 bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
                     const HairState& state);
 
-/// Strand s after the step's last substep, its positions and velocities not yet in the state
+/// Strand s after its block's substeps (the whole step; one substep where strands are coupled),
+/// its positions and velocities not yet in the state
 /// (`position`, `velocity`: its n particles). Written to the state when healthy. Otherwise (a
 /// non-finite value, or a strain beyond 3x the limit) counted in `stats`, and the strand restored
 /// from the state, which still holds what it started from at pose `from`: carried rigidly by the
