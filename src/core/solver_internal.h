@@ -73,16 +73,16 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
                     const HairState& state);
 
 /// Strand s after its block's substeps (the whole step; one substep where strands are coupled),
-/// its positions and velocities not yet in the state
-/// (`position`, `velocity`: its n particles). Written to the state when healthy. Otherwise (a
-/// non-finite value, or a strain beyond 3x the limit) counted in `stats`, and the strand restored
-/// from the state, which still holds what it started from at pose `from`: carried rigidly by the
-/// head to `to`, or, where that starting state fails the same check (a caller wrote it between
-/// steps), its rest shape carried by the head, with the head's velocity over elapsed_s. So the
-/// restore point costs no copy: the last good state, copied for every strand at every step, took
-/// 0.05 of the 0.47 CPU s per simulated second of the gather, scatter and check at 10,000 strands
-/// on two threads (docs/physics.md §3). The strand-block stepper runs it on each
-/// strand of a block right after converting it from the lanes, while it is in cache.
+/// its positions and velocities not yet in the state (`position`, `velocity`: its n particles).
+/// Written to the state when healthy. Otherwise (a non-finite value, or a strain beyond 3x the
+/// limit) counted in `stats`, and the strand restored from the state, which still holds what it
+/// started from at pose `from`: carried rigidly by the head to `to`, or, where that starting
+/// state fails the same check (a caller wrote it between steps), its rest shape carried by the
+/// head, with the head's velocity over elapsed_s. So the restore point costs no copy: the last
+/// good state, copied for every strand at every step, took 0.05 of the 0.47 CPU s per simulated
+/// second of the gather, scatter and check at 10,000 strands on two threads (docs/physics.md §3).
+/// The strand-block stepper runs it on each strand of a block right after converting it from the
+/// lanes, while it is in cache.
 void commitStrandAfterStep(const HairModel& model, const SolverConfig& config, const Pose& from,
                            const Pose& to, double elapsed_s, int s, const Vec3* position,
                            const Vec3* velocity, HairState* state, StepStats* stats);
