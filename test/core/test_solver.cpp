@@ -485,6 +485,15 @@ StepInputs movingHead() {
   return in;
 }
 
+/// A copy of m whose strand s blows up in any step: a NaN stretch stiffness on one edge, laid in
+/// the lanes too.
+HairModel withNanStretchStiffness(const HairModel& m, int s) {
+  HairModel broken = m;
+  broken.stretch_k[broken.strandBegin(s) + 5] = std::nan("");
+  relayModelLanes(&broken);
+  return broken;
+}
+
 TEST(Solver, StrandThatBlowsUpRestartsFromWhereItStartedCarriedByTheHead) {
   // A NaN stretch stiffness in strand 2 (the state healthy, the step's result not): the strand
   // takes the state it started the step from, carried rigidly from the start pose to the end
@@ -493,9 +502,7 @@ TEST(Solver, StrandThatBlowsUpRestartsFromWhereItStartedCarriedByTheHead) {
     SolverConfig c;
     c.integrator.threads = threads;
     const HairModel m = makeModel(curlyGroom(4), c);
-    HairModel broken = m;
-    broken.stretch_k[broken.strandBegin(2) + 5] = std::nan("");
-    relayModelLanes(&broken);
+    const HairModel broken = withNanStretchStiffness(m, 2);
     HairState s = makeState(m, Pose(), Twist());
     StepStats stats;
     step(m, c, StepInputs(), kFrame, &s, &stats);  // a step in, so that v is not the rest's
@@ -546,15 +553,13 @@ TEST(Solver, StrandWrittenUnhealthyBetweenStepsTakesItsRestShape) {
 }
 
 TEST(Solver, CoupledStrandThatBlowsUpRestartsFromItsLastSubstepsStart) {
-  // With hair contact the strands step a substep at a time and the last one is checked: the
-  // broken strand restarts, healthy, from where that substep started (not its rest shape).
+  // With hair contact the strands step a substep at a time and every substep is checked: the
+  // broken strand restarts, healthy, from where its substep started (not its rest shape).
   SolverConfig c;
   c.hair_contact.enabled = true;
   c.integrator.substep_s = kFrame / 3.0;
   const HairModel m = makeModel(curlyGroom(4), c);
-  HairModel broken = m;
-  broken.stretch_k[broken.strandBegin(2) + 5] = std::nan("");
-  relayModelLanes(&broken);
+  const HairModel broken = withNanStretchStiffness(m, 2);
   HairState s = makeState(m, Pose(), Twist());
   StepStats stats;
   step(m, c, StepInputs(), kFrame, &s, &stats);

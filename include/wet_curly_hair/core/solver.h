@@ -108,7 +108,7 @@ int dampingPassCount(const HairModel& model, const SolverConfig& config, double 
 /// (state->warnings, stats->repaired_strands); a strand whose starting state fails the same check
 /// (a caller wrote it so between steps) takes its rest shape carried by the head instead
 /// (stats->rest_shape_repairs). Where strands are coupled (hair contact, the force-based cohesion
-/// baselines) the step's last substep is checked, and its starting state restored.
+/// baselines) every substep is checked, and a strand restored to that substep's start.
 void step(const HairModel& model, const SolverConfig& config, const StepInputs& inputs, double dt_s,
           HairState* state, StepStats* stats);
 
