@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/metrics.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -146,6 +147,7 @@ std::string RunSummary::toJson() const {
       .add("cohesion_gather_at", cohesion_gather_at)
       .add("cohesion_refresh_period_s", cohesion_refresh_period_s)
       .add("cohesion_node_volumes", cohesion_node_volumes)
+      .add("cohesion_float_lanes", cohesion_float_lanes)
       .add("time_s", time_s)
       .add("energy", energy)
       .add("kinetic_energy", kinetic_energy)
@@ -284,6 +286,9 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   s.cohesion_gather_at = c.gather_at;
   s.cohesion_refresh_period_s = c.refresh_period_s;
   s.cohesion_node_volumes = c.mode == "ours" && c.evaluation == "grid" && c.grid_node_volumes;
+  s.cohesion_float_lanes = c.mode == "ours" && c.evaluation == "grid" && c.grid_single_precision
+                               ? kCohesionFloatLanes
+                               : 0;
   s.stage_particles.assign(kStageCount, 0);
   s.stage_cpu_s.assign(kStageCount, 0.0);
   return s;

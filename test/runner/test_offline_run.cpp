@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/groom.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/metrics.h"
@@ -49,9 +50,11 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   for (const char* key :
        {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"", "\"wall_s\"", "\"sim_s\"",
         "\"max_strain\"", "\"mean_strain\"", "\"max_penetration_m\"", "\"repairs\"", "\"energy\"",
-        "\"finite\"", "\"cpu\""})
+        "\"finite\"", "\"cpu\"", "\"cohesion_float_lanes\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
   EXPECT_EQ(s.cpu, describeThisCpu());
+  // The built-in scene's lattice runs in float, in the lanes the build chose for its CPU.
+  EXPECT_EQ(s.cohesion_float_lanes, kCohesionFloatLanes);
 }
 
 TEST(OfflineRun, TheCpuIsNamedWithItsFamilyModelAndAvx512) {

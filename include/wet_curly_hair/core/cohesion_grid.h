@@ -39,10 +39,19 @@ constexpr size_t kCohesionGridPadding = 8;
 
 /// Lanes of floats per vector: the float own-strand sums and the packed gathers use it, and the
 /// float per-particle arrays carry as many particles past the last one for the last strand's
-/// lanes. 8 (one AVX2 register) on every build: on a fourth-generation AMD EPYC (Zen 4, AVX-512)
-/// the display pass cost 0.89-0.90x on one thread and 0.92-0.94x on two with 8 lanes against 16
-/// (docs/physics.md §7.3).
+/// lanes. One register: 16 with AVX-512, 8 (AVX2) without, and 8 where AVX-512 runs on 256-bit
+/// units (a fourth-generation AMD EPYC, Zen 4: the display pass 0.89-0.94x with 8 against 16;
+/// on a fifth, Zen 5, 16 cost 0.70-0.97x of 8). The build sets WCH_COHESION_FLOAT_LANES from the
+/// build machine's CPU (CMakeLists.txt; docs/physics.md §7.3).
+#if defined(WCH_COHESION_FLOAT_LANES)
+constexpr int kCohesionFloatLanes = WCH_COHESION_FLOAT_LANES;
+#elif defined(__AVX512F__)
+constexpr int kCohesionFloatLanes = 16;
+#else
 constexpr int kCohesionFloatLanes = 8;
+#endif
+static_assert(kCohesionFloatLanes == 8 || kCohesionFloatLanes == 16,
+              "WCH_COHESION_FLOAT_LANES is 8 or 16");
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
 /// strand's (strain-limited) length of its root, and the roots within their rest bounding
