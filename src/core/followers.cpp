@@ -306,13 +306,19 @@ const Vec3* followerRest(const HairModel& model, const CurlConfig& curl, int s, 
   return held;
 }
 
-/// The followers' lanes: 8 strands placed together in floats, one per lane (one AVX2 register). The
-/// guides' samples are summed in double and rounded once into the lanes, so a follower's
-/// positions hold single precision, the precision of every output that carries them (~strands,
-/// .hair frames); no error accumulates, since each frame places them anew. On the first-
-/// generation EPYC (AVX2 on 128-bit units) 8 floats cost what 4 doubles did: the placement at
-/// 0.80-0.92x of lanes of 4 doubles (docs/followers.md).
+/// The followers' lanes: strands placed together in floats, one per lane, as many as one register
+/// holds (16 with AVX-512, 8 with AVX2; each lane computes alone, so the positions are the same
+/// to the bit either way). The guides' samples are summed in double and rounded once into the
+/// lanes, so a follower's positions hold single precision, the precision of every output that
+/// carries them (~strands, .hair frames); no error accumulates, since each frame places them
+/// anew. On the first-generation EPYC (AVX2 on 128-bit units) 8 floats cost what 4 doubles did:
+/// the placement at 0.80-0.92x of lanes of 4 doubles; 16 floats cost what 8 did on Zen 4 and
+/// 0.88-0.96x of it on Zen 5 (docs/followers.md).
+#if defined(__AVX512F__)
+using FollowerLane = LaneFloat16;
+#else
 using FollowerLane = LaneFloat8;
+#endif
 constexpr int kFollowerLanes = kLaneWidth<FollowerLane>;
 
 /// x, y, z and a spare of one guide edge's carry (GuideEdgeCarry) in one register.
