@@ -9,8 +9,9 @@ Target 3 (every strand simulated, theta at 1/240 s, no display pass) and target 
 with --follow-ratio 10) run through wet_curly_hair_run with --no-measure, as in the README. Prints,
 per target, the median real-time factor, the range over the runs and the stages' CPU seconds of
 the median run, with the CPU as the runner names it (its JSON's `cpu`: name, family, model,
-avx512f) and the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`); writes OUT/targets_10k.csv (every run). The node's target has its own script
-(bench/node_10k.sh), since it needs a ROS graph.
+avx512f) and the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`); writes
+OUT/targets_10k.csv (every run). The node's target has its own script (bench/node_10k.sh),
+since it needs a ROS graph.
 """
 import argparse
 import json
