@@ -85,7 +85,10 @@ struct StepStats {
   uint64_t hair_contact_list_builds = 0;
   uint64_t hair_contact_listed_pairs = 0;  ///< sphere pairs in the Verlet list (last substep).
   /// Per stage: particles it ran on (particle-substeps for per-substep stages, particles for
-  /// per-step ones) and CPU seconds summed over the solver threads (only with inputs.clock).
+  /// per-step ones) and seconds of inputs.clock (only with it): summed over the solver threads
+  /// for the stages timed inside a block or strand (frames to strain_limit, repair, lanes), and
+  /// the wall time of the whole parallel pass, read on the calling thread, for those run as one
+  /// (followers, cohesion, cohesion_forces, hair_contact): there two threads halve the figure.
   uint64_t stage_particles[kStageCount] = {};
   double stage_cpu_s[kStageCount] = {};
   double wall_s = 0.0;  ///< the whole step, wall clock (only with inputs.clock).
