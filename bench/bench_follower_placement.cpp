@@ -15,6 +15,7 @@
 // usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
 //                                 [--threads T] [--stage placement|display] [--gather-at
 //                                 all|guides] [--node-volumes true|false]
+//                                 [--wet-sums particles|nodes] [--cells 2..16]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -45,6 +46,8 @@ struct Options {
   std::string gather_at = CohesionConfig().gather_at;  ///< the default unless --gather-at
   /// solver.cohesion.grid_node_volumes: the default unless --node-volumes.
   std::string node_volumes = CohesionConfig().grid_node_volumes ? "true" : "false";
+  std::string wet_sums = CohesionConfig().grid_wet_sums;  ///< the default unless --wet-sums
+  int cells = CohesionConfig().grid_cells_per_radius;     ///< the default unless --cells
 };
 
 bool parse(int argc, char** argv, Options* o) {
@@ -57,6 +60,10 @@ bool parse(int argc, char** argv, Options* o) {
           o->gather_at = value;
         else if (a == "--node-volumes")
           o->node_volumes = value;
+        else if (a == "--wet-sums")
+          o->wet_sums = value;
+        else if (a == "--cells")
+          o->cells = v;
         else if (a == "--strands")
           o->strands = v;
         else if (a == "--follow-ratio")
@@ -74,7 +81,8 @@ bool parse(int argc, char** argv, Options* o) {
   return read && o->strands > 0 && o->follow_ratio > 1 && o->warm_frames >= 0 && o->runs > 0 &&
          o->threads > 0 && (o->stage == "placement" || o->stage == "display") &&
          (o->gather_at == "all" || o->gather_at == "guides") &&
-         (o->node_volumes == "true" || o->node_volumes == "false");
+         (o->node_volumes == "true" || o->node_volumes == "false") &&
+         (o->wet_sums == "particles" || o->wet_sums == "nodes") && o->cells >= 2 && o->cells <= 16;
 }
 
 }  // namespace
@@ -86,7 +94,7 @@ int main(int argc, char** argv) {
                  "usage: bench_follower_placement [--strands N > 0] [--follow-ratio K > 1] "
                  "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0] "
                  "[--stage placement|display] [--gather-at all|guides] "
-                 "[--node-volumes true|false]\n");
+                 "[--node-volumes true|false] [--wet-sums particles|nodes] [--cells 2..16]\n");
     return 2;
   }
   io::SceneConfig config = io::builtinScene();
@@ -95,6 +103,8 @@ int main(int argc, char** argv) {
   config.solver.integrator.threads = o.threads;
   config.solver.cohesion.gather_at = o.gather_at;
   config.solver.cohesion.grid_node_volumes = o.node_volumes == "true";
+  config.solver.cohesion.grid_wet_sums = o.wet_sums;
+  config.solver.cohesion.grid_cells_per_radius = o.cells;
   bench::NoddingRun run;
   if (!run.build(config, "bench_follower_placement")) return 1;
   for (int f = 0; f < o.warm_frames; ++f) run.stepFrame(f);
@@ -119,10 +129,10 @@ int main(int argc, char** argv) {
   }
   std::sort(ns.begin(), ns.end());
   std::printf(
-      "%s\n%d strands, K = %d (%d %s particles), %s, %d thread(s), %d runs: "
+      "%s\n%d strands, K = %d (%d %s particles), %s, %d nodes per radius, %d thread(s), %d runs: "
       "median %.1f ns, fastest %.1f ns per particle\n",
       bench::cpuLine().c_str(), o.strands, o.follow_ratio, timed, display ? "output" : "follower",
-      display ? ("display pass, sums at " + o.gather_at).c_str() : "placement", o.threads, o.runs,
-      ns[ns.size() / 2], ns.front());
+      display ? ("display pass, sums at " + o.gather_at + ", " + o.wet_sums).c_str() : "placement",
+      o.cells, o.threads, o.runs, ns[ns.size() / 2], ns.front());
   return 0;
 }

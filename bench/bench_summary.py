@@ -281,13 +281,15 @@ def gating(out, g):
 
 def cohesion_rows(d):
     """cohesion.csv's rows; a file from before the lattice density was a candidate ran the
-    lattice at 4 nodes per radius only, and had no output-position errors."""
+    lattice at 4 nodes per radius only, and had no output-position errors; one from before the
+    sums convolved at the nodes were a candidate gathered them at every particle."""
     path = os.path.join(d, "cohesion.csv")
     if not os.path.exists(path):
         return []
     rs = rows(path)
     for r in rs:
         r["cells_per_radius"] = r.get("cells_per_radius") or "4"
+        r["wet_sums"] = r.get("wet_sums") or "particles"
     return rs
 
 
@@ -295,13 +297,16 @@ def cohesion_choice(rs):
     """The cheapest evaluation (summed cost over the strand counts) that meets both budgets at
     every strand count: its clump distance within 1 % of exact's (the look), and its output
     positions within 1 % of the strand length RMS of exact's over the run (the chart's budget;
-    not checked on a file without the column). (evaluation, lattice nodes per radius) or None."""
+    not checked on a file without the column). (evaluation, lattice nodes per radius, where the
+    lattice's sums ran) or None."""
     if not rs:
         return None
     exact = {r["strands"]: float(r["clump_distance_m"]) for r in rs if r["evaluation"] == "exact"}
     best = None
-    for key in sorted({(r["evaluation"], int(r["cells_per_radius"])) for r in rs}):
-        pts = [r for r in rs if (r["evaluation"], int(r["cells_per_radius"])) == key]
+    def key_of(r):
+        return (r["evaluation"], int(r["cells_per_radius"]), r["wet_sums"])
+    for key in sorted({key_of(r) for r in rs}):
+        pts = [r for r in rs if key_of(r) == key]
         ok = all(r["strands"] in exact and
                  abs(float(r["clump_distance_m"]) - exact[r["strands"]]) <= 0.01 * exact[r["strands"]]
                  and float(r.get("pw_rms_vs_exact_length") or 0.0) <= 0.01
@@ -318,14 +323,15 @@ def cohesion(out, rs):
     out.append("CPU per wet particle-frame, clump distance, and the output positions' RMS distance "
                "from exact's over the run (relative to exact's RMS displacement |p^w - p| and to the "
                "strand length).\n")
-    out.append("| strands | evaluation | nodes per radius | us per wet particle-frame "
+    out.append("| strands | evaluation | nodes per radius | sums | us per wet particle-frame "
                "| clump distance, mm | p^w vs exact, mm | of the displacement | of the length |")
-    out.append("|---|---|---|---|---|---|---|---|")
+    out.append("|---|---|---|---|---|---|---|---|---|")
     for r in rs:
         err = r.get("pw_rms_vs_exact_m")  # absent from files written before the column
-        out.append("| %s | %s | %s | %s | %s | %s | %s | %s |" % (
+        out.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             r["strands"], r["evaluation"],
             r["cells_per_radius"] if r["evaluation"] == "grid" else "-",
+            ("at the " + r["wet_sums"]) if r["evaluation"] == "grid" else "-",
             fmt(float(r["us_per_wet_particle_frame"])), fmt(1e3 * float(r["clump_distance_m"]), 4),
             fmt(1e3 * float(err)) if err else "-",
             ("%.1f %%" % (100 * float(r["pw_rms_vs_exact_rel"]))) if err else "-",
@@ -334,7 +340,8 @@ def cohesion(out, rs):
     if choice:
         out.append("\nChosen (clump distance within 1 %% of exact's and p^w within 1 %% of the "
                    "length at every count, cheapest): %s%s.\n"
-                   % (choice[0], ", %d nodes per radius" % choice[1] if choice[0] == "grid" else ""))
+                   % (choice[0], ", %d nodes per radius, sums at the %s" % (choice[1], choice[2])
+                      if choice[0] == "grid" else ""))
 
 
 # Costs closer than this (a ratio) are a tie: medians of 5 runs move by a few per cent between
@@ -373,6 +380,7 @@ def write_defaults(d, common):
             f.write("solver.cohesion.evaluation %s\n" % evaluation[0])
             if evaluation[0] == "grid":
                 f.write("solver.cohesion.grid_cells_per_radius %d\n" % evaluation[1])
+                f.write("solver.cohesion.grid_wet_sums %s\n" % evaluation[2])
 
 
 def main():

@@ -600,7 +600,7 @@ int benchScaling(const Options& opt, bool* all_ok) {
   return 0;
 }
 
-/// The cohesion display pass on its own: exact and the lattice densities.
+/// The cohesion display pass on its own: exact and the lattice evaluations.
 /// Returns 2 when a run fails, 0 otherwise; *all_ok turns false when a file cannot be written.
 int benchCohesion(const Options& opt, bool* all_ok) {
   std::string why;
@@ -610,17 +610,24 @@ int benchCohesion(const Options& opt, bool* all_ok) {
   // 4, 3 and 2 nodes per radius (the candidates of the lattice density). p^w never feeds back,
   // so every evaluation sees the same dynamics: its output positions are compared with exact's
   // frame by frame (RMS over the frames and particles, in m, relative to exact's RMS
-  // displacement |p^w - p| and to the strand length).
+  // displacement |p^w - p| and to the strand length). The lattice's sums of eq. (10) gathered per
+  // particle, or convolved at the nodes (solver.cohesion.grid_wet_sums) at 5, 4 and 3.
   std::ostringstream csv;
-  csv << "strands,evaluation,cells_per_radius,us_per_wet_particle_frame,clump_distance_m,"
+  csv << "strands,evaluation,cells_per_radius,wet_sums,us_per_wet_particle_frame,clump_distance_m,"
          "pw_rms_vs_exact_m,pw_rms_vs_exact_rel,pw_rms_vs_exact_length,runs\n";
   struct Evaluation {
     const char* evaluation;
-    int cells;  ///< lattice nodes per kernel radius (grid only)
+    int cells;             ///< lattice nodes per kernel radius (grid only)
+    const char* wet_sums;  ///< solver.cohesion.grid_wet_sums (grid only)
   };
   const std::vector<Evaluation> evaluations =
-      opt.quick ? std::vector<Evaluation>{{"exact", 4}, {"grid", 4}}
-                : std::vector<Evaluation>{{"exact", 4}, {"grid", 4}, {"grid", 3}, {"grid", 2}};
+      opt.quick ? std::vector<Evaluation>{{"exact", 4, "particles"},
+                                          {"grid", 4, "particles"},
+                                          {"grid", 4, "nodes"}}
+                : std::vector<Evaluation>{{"exact", 4, "particles"}, {"grid", 4, "particles"},
+                                          {"grid", 3, "particles"},  {"grid", 2, "particles"},
+                                          {"grid", 5, "nodes"},      {"grid", 4, "nodes"},
+                                          {"grid", 3, "nodes"}};
   const std::vector<int> counts =
       opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000, 2000};
   for (int count : counts) {
@@ -633,7 +640,8 @@ int benchCohesion(const Options& opt, bool* all_ok) {
                    {{"saturation.root", "1"},
                     {"saturation.tip", "1"},
                     {"solver.cohesion.evaluation", "\"" + evaluation + "\""},
-                    {"solver.cohesion.grid_cells_per_radius", std::to_string(ev.cells)}},
+                    {"solver.cohesion.grid_cells_per_radius", std::to_string(ev.cells)},
+                    {"solver.cohesion.grid_wet_sums", "\"" + std::string(ev.wet_sums) + "\""}},
                    "still"};
       io::SceneConfig scene;
       if (!makeScene(b, count, opt.quick ? 0.1 : 0.2, &scene, &why)) {
@@ -664,14 +672,15 @@ int benchCohesion(const Options& opt, bool* all_ok) {
       const double error = frameError(frames.frames, exact_frames.frames, 1.0).rms;
       const double relative = displacement_rms > 0.0 ? error / displacement_rms : 0.0;
       const double length = scene.groom.length_m;
-      csv << count << "," << evaluation << "," << ev.cells << "," << fmt(median(us)) << ","
-          << fmt(run.summary.clump_distance_m) << "," << fmt(error) << "," << fmt(relative) << ","
-          << fmt(error / length) << "," << repeats << "\n";
+      csv << count << "," << evaluation << "," << ev.cells << "," << ev.wet_sums << ","
+          << fmt(median(us)) << "," << fmt(run.summary.clump_distance_m) << "," << fmt(error) << ","
+          << fmt(relative) << "," << fmt(error / length) << "," << repeats << "\n";
       std::printf(
-          "cohesion %6d strands %-6s %d %8.2f us per wet particle-frame, clump %.3f mm, "
+          "cohesion %6d strands %-6s %d %-9s %8.2f us per wet particle-frame, clump %.3f mm, "
           "p^w vs exact RMS %.4f mm (%.2f %% of the displacement, %.3f %% of the length)\n",
-          count, evaluation.c_str(), ev.cells, median(us), 1e3 * run.summary.clump_distance_m,
-          1e3 * error, 100.0 * relative, 100.0 * error / length);
+          count, evaluation.c_str(), ev.cells, ev.wet_sums, median(us),
+          1e3 * run.summary.clump_distance_m, 1e3 * error, 100.0 * relative,
+          100.0 * error / length);
       std::fflush(stdout);
     }
   }

@@ -32,7 +32,7 @@ struct Lattice {
   int64_t nx = 0, ny = 0, nz = 0;
   double ka = 0.0, kb = 0.0;  ///< node kernel K(q) = q (q^2 + ka q + kb), q = h^2 - r^2 >= 0
   /// The node kernel of sums convolved on the lattice and interpolated to the particle
-  /// (convolveNodes): two trilinear interpolations, twice the correction.
+  /// (convolveNodeBlocks): two trilinear interpolations, twice the correction.
   double ka_both = 0.0, kb_both = 0.0;
   /// The node the wet sums take their positions from, relative to the origin: the lattice's
   /// middle node (P_n = sum_j t_jn V_j sigma_j (p_j - x_ref), WetNodes).
@@ -541,18 +541,20 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const
 /// Lanes of the float own-strand pass: one register of floats.
 typedef float OwnLanes __attribute__((vector_size(4 * kCohesionFloatLanes)));
 
-/// ownStrandShare in single precision for every particle i of the strand [begin, end), stored in
-/// g->own_*_f. The particles i sit in lanes and the strand's particles j come one at a time, so
-/// every lane sums its own j in order and no horizontal sum is needed (with j in lanes, the 16-lane
-/// reductions of 4 sums cost as much as the 2 vector iterations of a 32-particle strand). Lengths
-/// are in lattice units (divided by c), so q and the kernel are O(1) and the sums scale back by
-/// c^6 and c^7. The corner offsets are formed as (k_j - k_i) - t_i: the cell difference is an
-/// exact integer in float, so each offset carries one rounding of its own size (relative 6e-8),
-/// not one of the lattice coordinates. Lanes past the strand's end read the next strand (or the
-/// arrays' padding) and are not stored.
-template <bool kNodeVolumes>
-void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolumes& nv, int begin,
-                           int end) {
+/// A strand's own-strand shares in single precision for every particle i of the strand [begin,
+/// end), stored in g->own_*_f: sum_j w_ij of V_j (of 1 with particle_volumes false: the weight
+/// carries the volume) and of V_j sigma_j (p_j - p_i), with w_ij = pair_weight(j, e) and e the
+/// offset from p_i to the lowest node of j's cell. The particles i sit in lanes and the strand's
+/// particles j come one at a time, so every lane sums its own j in order and no horizontal sum is
+/// needed (with j in lanes, the 16-lane reductions of 4 sums cost as much as the 2 vector
+/// iterations of a 32-particle strand). Lengths are in lattice units (divided by c), so q and the
+/// kernel are O(1) and the sums scale back by c^6 and c^7. The offsets are formed as (k_j - k_i)
+/// - t_i: the cell difference is an exact integer in float, so each offset carries one rounding
+/// of its own size (relative 6e-8), not one of the lattice coordinates. Lanes past the strand's
+/// end read the next strand (or the arrays' padding) and are not stored.
+template <typename PairWeight>
+WCH_INLINE void ownSharesInLanes(CohesionNodeGrid* g, int begin, int end, bool particle_volumes,
+                                 PairWeight pair_weight) {
   typedef OwnLanes V;
   constexpr int kW = kCohesionFloatLanes;
   const float* __restrict kx = g->kx_f.data();
@@ -563,9 +565,6 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolu
   const float* __restrict tz = g->tz_f.data();
   const float* __restrict vol = g->volume_f.data();
   const float* __restrict wet = g->wet_share_f.data();
-  const double c2 = L.c * L.c;
-  const float h2 = static_cast<float>(double(L.cells * L.cells));
-  const float ka = static_cast<float>(L.ka / c2), kb = static_cast<float>(L.kb / (c2 * c2));
   const V zero = {};
   for (int i0 = begin; i0 < end; i0 += kW) {
     const V kxi = loadLanes<V>(kx + i0), kyi = loadLanes<V>(ky + i0), kzi = loadLanes<V>(kz + i0);
@@ -573,27 +572,9 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolu
     V w_sum = zero, px = zero, py = zero, pz = zero;
     for (int j = begin; j < end; ++j) {
       const V ex = (kx[j] - kxi) - txi, ey = (ky[j] - kyi) - tyi, ez = (kz[j] - kzi) - tzi;
-      // h^2 less the squared distance to each corner, as (h^2 - x^2) - (y^2 + z^2): the two
-      // x terms and four y-z sums are shared by the 8 corners.
-      const V reach_x[2] = {h2 - ex * ex, h2 - (ex + 1.0f) * (ex + 1.0f)};
-      const V y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
-              z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
-      const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
-                  wz[2] = {1.0f - tz[j], tz[j]};
-      float corner[8];
-      nv.cornerFactors<kNodeVolumes>(L, *g, j, corner);
-      V wt = zero;
-      for (int az = 0; az < 2; ++az)
-        for (int ay = 0; ay < 2; ++ay) {
-          const V yz = y2[ay] + z2[az];
-          for (int ax = 0; ax < 2; ++ax) {
-            const V q = positivePart(reach_x[ax] - yz);
-            wt +=
-                (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
-          }
-        }
+      const V wt = pair_weight(j, ex, ey, ez);
       const V ws = wet[j] * wt;
-      w_sum += (kNodeVolumes ? 1.0f : vol[j]) * wt;
+      w_sum += (particle_volumes ? vol[j] : 1.0f) * wt;
       px += ws * (ex + tx[j]);  // (p_j - p_i) / c = (k_j - k_i) + t_j - t_i
       py += ws * (ey + ty[j]);
       pz += ws * (ez + tz[j]);
@@ -606,6 +587,56 @@ void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolu
       g->own_pz_f[i0 + l] = pz[l];
     }
   }
+}
+
+/// ownStrandShare in single precision (ownSharesInLanes): w_ij the functional the lattice applies
+/// to one particle, the kernel at the 8 corners of j's cell.
+template <bool kNodeVolumes>
+void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolumes& nv, int begin,
+                           int end) {
+  typedef OwnLanes V;
+  const float* __restrict tx = g->tx_f.data();
+  const float* __restrict ty = g->ty_f.data();
+  const float* __restrict tz = g->tz_f.data();
+  const double c2 = L.c * L.c;
+  const float h2 = static_cast<float>(double(L.cells * L.cells));
+  const float ka = static_cast<float>(L.ka / c2), kb = static_cast<float>(L.kb / (c2 * c2));
+  ownSharesInLanes(g, begin, end, !kNodeVolumes, [&](int j, const V& ex, const V& ey, const V& ez) {
+    // h^2 less the squared distance to each corner, as (h^2 - x^2) - (y^2 + z^2): the two x
+    // terms and four y-z sums are shared by the 8 corners.
+    const V reach_x[2] = {h2 - ex * ex, h2 - (ex + 1.0f) * (ex + 1.0f)};
+    const V y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
+            z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
+    const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
+                wz[2] = {1.0f - tz[j], tz[j]};
+    float corner[8];
+    nv.cornerFactors<kNodeVolumes>(L, *g, j, corner);
+    V wt = {};
+    for (int az = 0; az < 2; ++az)
+      for (int ay = 0; ay < 2; ++ay) {
+        const V yz = y2[ay] + z2[az];
+        for (int ax = 0; ax < 2; ++ax) {
+          const V q = positivePart(reach_x[ax] - yz);
+          wt += (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
+        }
+      }
+    return wt;
+  });
+}
+
+/// The own strand's share of eq. (10)'s sums as exact pairs in single precision
+/// (ownSharesInLanes): w_ij = W(|p_i - p_j|), i included (W(0) V_i).
+void exactOwnSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int end) {
+  typedef OwnLanes V;
+  const float* __restrict tx = g->tx_f.data();
+  const float* __restrict ty = g->ty_f.data();
+  const float* __restrict tz = g->tz_f.data();
+  const float h2 = static_cast<float>(double(L.cells * L.cells));
+  ownSharesInLanes(g, begin, end, true, [&](int j, const V& ex, const V& ey, const V& ez) {
+    const V dx = ex + tx[j], dy = ey + ty[j], dz = ez + tz[j];
+    const V q = positivePart(h2 - (dx * dx + dy * dy + dz * dz));
+    return q * q * q;
+  });
 }
 
 /// The splat's particles in two halves by index, each added into its own copy of the node
@@ -698,47 +729,75 @@ inline std::pair<int64_t, int64_t> massSpan(const double* row, int64_t x_lo, int
   return {first, last};
 }
 
-/// out_n = sum_m K(|x_n - x_m|) in_m over the nodes m within h of n, with the node kernel K(q) =
-/// q (q^2 + ka q + kb), at every node with mass (in_n != 0) whose window lies inside the lattice:
-/// the nodes of every particle's cell do (the lattice's margin is kCells + 2 nodes). Only those
-/// are read: a particle's densities take the corners of its cell, each of which holds its mass
-/// unless its trilinear weight is 0, and the node volumes divide where there is mass. So each
-/// row is convolved from its first node with mass to its last and set to 0 elsewhere: about a
-/// fifth of the hair's bounding box holds mass (10,000 strands, 3 nodes per radius), and the
-/// densities read are the same to the bit. An output row is a sum of input rows shifted by dx,
-/// which vectorises along x; layers run in parallel, and every node sums in the same order
-/// whatever the thread count.
+/// The node kernel K(q) = q (q^2 + ka q + kb), q = h^2 - |v|^2 c^2, at the integer node offsets v
+/// in [-kCells, kCells]^3 (0 beyond h): the one table the node convolutions and the lattice
+/// functional's own-strand shares read, so both weigh a pair of nodes alike to the bit.
 template <int kCells>
-void convolveNodes(const Lattice& L, const double* __restrict in, double* __restrict out, double ka,
-                   double kb, int threads) {
-  const double h2 = L.h * L.h;
-  constexpr int kW = 2 * kCells + 1;
-  double taps[kW * kW * kW];  // K at the offset (dx, dy, dz) in [-kCells, kCells]^3; 0 beyond h
+struct NodeTaps {
+  static constexpr int kW = 2 * kCells + 1;
+  double k[kW * kW * kW];
+  NodeTaps(const Lattice& L, double ka, double kb) {
+    const double h2 = L.h * L.h;
+    for (int dz = -kCells; dz <= kCells; ++dz)
+      for (int dy = -kCells; dy <= kCells; ++dy)
+        for (int dx = -kCells; dx <= kCells; ++dx) {
+          const double q = h2 - L.c * L.c * double(dx * dx + dy * dy + dz * dz);
+          k[index(dx, dy, dz)] = q > 0.0 ? nodeKernel(q, ka, kb) : 0.0;
+        }
+  }
+  static int index(int dx, int dy, int dz) {
+    return ((dz + kCells) * kW + dy + kCells) * kW + dx + kCells;
+  }
+  /// K at any integer offset: 0 where a component exceeds kCells (beyond h).
+  double at(int dx, int dy, int dz) const {
+    const bool inside = std::abs(dx) <= kCells && std::abs(dy) <= kCells && std::abs(dz) <= kCells;
+    return inside ? k[index(dx, dy, dz)] : 0.0;
+  }
+};
+
+/// out_n = sum_m K(|x_n - x_m|) in_m over the nodes m within h of n (NodeTaps), kStride doubles
+/// per node side by side (one array: the mass; or the wet splat's S, Px, Py, Pz), at every node
+/// with mass (mass_n != 0) whose window lies inside the lattice: the nodes of every particle's
+/// cell do (the lattice's margin is kCells + 2 nodes). Only those are read: a particle takes the
+/// corners of its cell, each of which holds its mass unless its trilinear weight is 0, and the
+/// node volumes divide where there is mass. So each row is convolved in blocks of 8 nodes from
+/// its first node with mass to its last (about a fifth of the hair's bounding box holds mass at
+/// 10,000 strands, 3 nodes per radius); a block may run up to 7 nodes past the last, into nodes
+/// no particle reads (the lattice's margin and padding), and nodes outside the blocks keep
+/// whatever they held. A block sums every tap into registers and is stored once (adding each tap
+/// into the output row in memory cost a load and a store per tap and node); every node sums its
+/// taps in the same order whatever the thread count, layers running in parallel.
+template <int kCells, int kStride>
+void convolveNodeBlocks(const Lattice& L, const double* __restrict mass,
+                        const double* __restrict in, double* __restrict out,
+                        const NodeTaps<kCells>& taps, int threads) {
+  typedef Lanes<double>::type D;  // 8 doubles
+  constexpr int kBlock = 8, kVectors = kBlock * kStride / 8;
+  constexpr int kW = NodeTaps<kCells>::kW;
+  int64_t offset[kW * kW * kW];  // the taps within h, as node offsets, and their weights
+  double weight[kW * kW * kW];
+  int count = 0;
   for (int dz = -kCells; dz <= kCells; ++dz)
     for (int dy = -kCells; dy <= kCells; ++dy)
       for (int dx = -kCells; dx <= kCells; ++dx) {
-        const double q = h2 - L.c * L.c * double(dx * dx + dy * dy + dz * dz);
-        taps[((dz + kCells) * kW + dy + kCells) * kW + dx + kCells] =
-            q > 0.0 ? nodeKernel(q, ka, kb) : 0.0;
+        if (taps.at(dx, dy, dz) == 0.0) continue;
+        offset[count] = kStride * ((dz * L.ny + dy) * L.nx + dx);
+        weight[count++] = taps.at(dx, dy, dz);
       }
   const int64_t x_lo = kCells, x_hi = L.nx - kCells;
   parallelFor(threads, Schedule::kStatic, 0, L.nz - 2 * kCells, [&](int64_t layer) {
     const int64_t kz = layer + kCells;
     for (int64_t ky = kCells; ky < L.ny - kCells; ++ky) {
-      double* __restrict row = out + L.index(0, ky, kz);
-      for (int64_t x = x_lo; x < x_hi; ++x) row[x] = 0.0;
-      const auto [lo, hi] = massSpan(in + L.index(0, ky, kz), x_lo, x_hi);
-      if (lo == hi) continue;
-      for (int dz = -kCells; dz <= kCells; ++dz)
-        for (int dy = -kCells; dy <= kCells; ++dy) {
-          const double* __restrict from = in + L.index(0, ky + dy, kz + dz);
-          const double* tap = taps + ((dz + kCells) * kW + dy + kCells) * kW + kCells;
-          for (int dx = -kCells; dx <= kCells; ++dx) {
-            const double w = tap[dx];
-            if (w == 0.0) continue;
-            for (int64_t x = lo; x < hi; ++x) row[x] += w * from[x + dx];
-          }
-        }
+      const int64_t row_start = L.index(0, ky, kz);
+      const auto [lo, hi] = massSpan(mass + row_start, x_lo, x_hi);
+      for (int64_t x = lo; x < hi; x += kBlock) {
+        const double* from = in + kStride * (row_start + x);
+        D sum[kVectors] = {};
+        for (int t = 0; t < count; ++t)
+          for (int v = 0; v < kVectors; ++v)
+            sum[v] += weight[t] * loadLanes<D>(from + offset[t] + 8 * v);
+        std::memcpy(out + kStride * (row_start + x), sum, sizeof sum);
+      }
     }
   });
 }
@@ -800,6 +859,19 @@ void spreadWetSplat(CohesionNodeGrid* g, int64_t nodes, bool single, double dens
   });
 }
 
+/// The wet splat's halves summed into the first (volume and wet sums), for the sums convolved at
+/// the nodes (spreadWetSplat's pass for the gathers).
+void sumSplatHalves(CohesionNodeGrid* g, int64_t nodes, int threads) {
+  double* __restrict v = g->scalar.data();
+  const double* __restrict v_b = g->scalar_b.data();
+  double* __restrict w = g->wet_splat.data();
+  const double* __restrict w_b = g->wet_splat_b.data();
+  parallelFor(threads, Schedule::kStatic, 0, nodes, [&](int64_t k) {
+    v[k] += v_b[k];
+    for (int c = 0; c < 4; ++c) w[4 * k + c] += w_b[4 * k + c];
+  });
+}
+
 /// The first `count` entries of each of a and b set to 0.
 void zero(std::vector<double>* a, std::vector<double>* b, int64_t count, int threads) {
   double* __restrict x = a->data();
@@ -839,7 +911,8 @@ void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, 
   addInto(&g.scalar, g.scalar_b, nodes, threads);
   const double norm = densityNorm(L.h);
   double* const node_density = g.wet_volume.data();
-  convolveNodes<kCells>(L, g.scalar.data(), node_density, ka, kb, threads);
+  convolveNodeBlocks<kCells, 1>(L, g.scalar.data(), g.scalar.data(), node_density,
+                                NodeTaps<kCells>(L, ka, kb), threads);
   parallelFor(threads, Schedule::kStatic, 0, count, [&](int i) {
     state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
     g.volume[i] = model.mass_kg[i] / state->density[i];
@@ -855,7 +928,8 @@ void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, 
 /// densities go to wet_volume.
 template <int kCells>
 NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, int64_t nodes,
-                                     int gathered, bool single, HairState* state, int threads) {
+                                     int gathered, bool single, bool node_sums, HairState* state,
+                                     int threads) {
   CohesionNodeGrid& g = state->cohesion_grid;
   const Vec3List& p = state->position;
   const int n = model.particleCount();
@@ -881,7 +955,8 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
   splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
     return wetSplat(&g, L, cell, half, g.volume[j], g.volume[j] * state->saturation[j]);
   });
-  spreadWetSplat(&g, nodes, single, 0.0, threads);
+  // The sums convolved at the nodes take the two halves as the splat left them.
+  if (!node_sums) spreadWetSplat(&g, nodes, single, 0.0, threads);
   return NodeVolumes{};
 }
 
@@ -924,6 +999,148 @@ namespace {
 /// of 0.3 s of the 1,000-strand scene fully wet (70 at 1e-3), none at 10,000 strands, K = 10.
 constexpr double kSingleGuard = 1e-2;
 
+/// Eq. (10)'s display offset of particle i from its sums over all strands and over its own
+/// strand (the own share subtracted, A13; self_weight V_i W(0) added back with include_self),
+/// written as p^w (dry particles, gathered with gather_at "guides" for their offsets, keep p^w =
+/// p). Returns 1 when the particle moved.
+inline int writeClumpOffset(const CohesionConfig& cfg, const WetSums& all, const WetSums& own,
+                            double self_weight, bool wet_particle, bool at_guides, int i,
+                            const Vec3& p, const detail::DisplayWrite& write, HairState* state) {
+  double weight_sum = all.weight - own.weight;
+  // Round-off of the cancellation: no other strand within reach.
+  if (!(weight_sum > 1e-9 * own.weight)) {
+    if (at_guides) state->guide_clump_offset[i] = Vec3::Zero();
+    write.unmoved(i, p);
+    return 0;
+  }
+  const Vec3 pull = all.pull - own.pull;
+  if (cfg.include_self) weight_sum += self_weight;
+  const Vec3 offset = clumpOffset(pull, weight_sum, cfg.tightness);
+  if (at_guides) state->guide_clump_offset[i] = offset;
+  if (!wet_particle) {
+    write.unmoved(i, p);
+    return 0;
+  }
+  write(i, p, offset);
+  return 1;
+}
+
+/// With grid_wet_sums "nodes": the own strand is subtracted as exact pairs where the other strands'
+/// weight exceeds this many times the own strand's (there the lattice's error on the own share,
+/// a few % of it, is below a fifth of that of the sums it is taken from), else through the lattice
+/// functional itself, which cancels an isolated strand to round-off.
+constexpr double kExactOwnRatio = 4.0;
+
+/// The node sums of eq. (10) with grid_wet_sums "nodes", convolved (sum_m K(x_n - x_m) of each):
+/// V per node, and S, Px, Py, Pz side by side (4 per node, as the wet splat adds them).
+struct ConvolvedWetNodes {
+  const double* volume;
+  const double* wet;
+};
+
+/// The sums of eq. (10) at a particle from its cell's 8 convolved nodes (trilinear), as WetSums:
+/// a cell's two nodes along x hold 8 consecutive wet sums, one vector.
+WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes& c,
+                                      const CellPosition& cell) {
+  typedef Lanes<double>::type D;
+  const int64_t n = L.index(static_cast<int64_t>(cell.k[0]), static_cast<int64_t>(cell.k[1]),
+                            static_cast<int64_t>(cell.k[2]));
+  const int64_t up = L.nx * L.ny;
+  const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
+  const int64_t corner[4] = {n, n + L.nx, n + up, n + up + L.nx};
+  const double weight[4] = {(1.0 - ty) * (1.0 - tz), ty * (1.0 - tz), (1.0 - ty) * tz, ty * tz};
+  const D along_x = {1.0 - tx, 1.0 - tx, 1.0 - tx, 1.0 - tx, tx, tx, tx, tx};
+  D wet = {};
+  double volume = 0.0;
+  for (int k = 0; k < 4; ++k) {
+    wet += (weight[k] * along_x) * loadLanes<D>(c.wet + 4 * corner[k]);
+    const double* v = c.volume + corner[k];
+    volume += weight[k] * ((1.0 - tx) * v[0] + tx * v[1]);
+  }
+  return wetSums(L, cell.r, volume, wet[0] + wet[4],
+                 Vec3(wet[1] + wet[5], wet[2] + wet[6], wet[3] + wet[7]));
+}
+
+/// The own strand's share through the lattice functional of the convolved nodes: for particle j
+/// of the strand, sum over the corners d of i's cell and c of j's of t_id t_jc K(x_c - x_d), the
+/// weight the splat, the convolution and the interpolation give j at p_i. Along each axis c - d
+/// takes the cell difference plus -1, 0 or 1, so the 64 corner pairs fold into 27 offsets.
+template <int kCells>
+WetSums latticeOwnShare(const Lattice& L, const NodeTaps<kCells>& taps, const CohesionNodeGrid& g,
+                        int begin, int end, int i) {
+  const CellAxis ci[3] = {cellAxis(L, g.rx[i]), cellAxis(L, g.ry[i]), cellAxis(L, g.rz[i])};
+  WetSums share;
+  for (int j = begin; j < end; ++j) {
+    const double rj[3] = {g.rx[j], g.ry[j], g.rz[j]};
+    int delta[3];
+    double fold[3][3];  // per axis, the weight of c - d = delta - 1, delta, delta + 1
+    for (int a = 0; a < 3; ++a) {
+      const CellAxis cj = cellAxis(L, rj[a]);
+      delta[a] = static_cast<int>(cj.node - ci[a].node);
+      const double ti = ci[a].fraction, tj = cj.fraction;
+      fold[a][0] = (1.0 - tj) * ti;                    // c at j's low node, d at i's high
+      fold[a][1] = (1.0 - tj) * (1.0 - ti) + tj * ti;  // both low, both high
+      fold[a][2] = tj * (1.0 - ti);                    // c high, d low
+    }
+    double w = 0.0;
+    for (int ez = 0; ez < 3; ++ez)
+      for (int ey = 0; ey < 3; ++ey)
+        for (int ex = 0; ex < 3; ++ex)
+          w += fold[0][ex] * fold[1][ey] * fold[2][ez] *
+               taps.at(delta[0] + ex - 1, delta[1] + ey - 1, delta[2] + ez - 1);
+    share.weight += g.volume[j] * w;
+    share.pull +=
+        (g.wet_share[j] * w) * Vec3(g.rx[j] - g.rx[i], g.ry[j] - g.ry[i], g.rz[j] - g.rz[i]);
+  }
+  return share;
+}
+
+/// Eq. (10)'s sums at the gathered particles from the convolved nodes (grid_wet_sums "nodes"),
+/// the own strand subtracted (kExactOwnRatio), written as in evaluateOnLattice. Returns the
+/// number of particles moved.
+template <int kCells>
+int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg, const Lattice& L,
+                              HairState* state, int gathered, int gathered_strands, bool at_guides,
+                              int threads) {
+  CohesionNodeGrid& g = state->cohesion_grid;
+  const Vec3List& p = state->position;
+  const double h2 = cfg.radius_m * cfg.radius_m;
+  const NodeTaps<kCells> taps(L, L.ka_both, L.kb_both);
+  // The splat's halves summed in place (V in scalar, S and P side by side in wet_splat), and
+  // convolved into qx and wet_splat_b.
+  const int64_t nodes = L.nx * L.ny * L.nz;
+  sumSplatHalves(&g, nodes, threads);
+  convolveNodeBlocks<kCells, 1>(L, g.scalar.data(), g.scalar.data(), g.qx.data(), taps, threads);
+  convolveNodeBlocks<kCells, 4>(L, g.scalar.data(), g.wet_splat.data(), g.wet_splat_b.data(), taps,
+                                threads);
+  const ConvolvedWetNodes convolved{g.qx.data(), g.wet_splat_b.data()};
+  parallelFor(threads, Schedule::kDynamic, 16, gathered_strands, [&](int s) {
+    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+    bool wet_strand = at_guides;
+    for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
+    if (wet_strand) exactOwnSharesSingle(L, &g, begin, end);
+  });
+  const double c6 = std::pow(L.c, 6);
+  const detail::DisplayWrite write = detail::displayWrite(cfg, state);
+  return static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
+    const bool wet_particle = state->saturation[i] > 0.0;
+    if (!wet_particle && !at_guides) {  // dry particles keep p^w = p
+      write.unmoved(i, p[i]);
+      return 0;
+    }
+    const WetSums all = interpolateWetSums(L, convolved, cellPosition(L, p[i]));
+    const int s = static_cast<int>(state->grid.strand_of[i]);
+    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
+    WetSums own;
+    own.weight = c6 * double(g.own_weight_f[i]);
+    own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
+    if (!(all.weight - own.weight > kExactOwnRatio * own.weight))
+      own = latticeOwnShare<kCells>(L, taps, g, begin, end, i);
+    return writeClumpOffset(cfg, all, own, g.volume[i] * poly6Shape(0.0, h2), wet_particle,
+                            at_guides, i, p[i], write, state);
+  }));
+}
+
 template <int kCells>
 int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const Lattice& L,
                       int64_t nodes, HairState* state, int threads) {
@@ -931,7 +1148,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const Vec3List& p = state->position;
   const int n = model.particleCount();
   const double h = cfg.radius_m, h2 = h * h;
-  const bool single = cfg.grid_single_precision;
+  const bool node_sums = cfg.grid_wet_sums == "nodes" && !cfg.grid_node_volumes;
+  const bool single = cfg.grid_single_precision && !node_sums;
   // With gather_at "guides" the sums of eq. (10) run over the guide particles only (wet or dry:
   // wet followers interpolate their display offsets); every particle is still splatted.
   const int guide_strands = model.followers.guide_strands;
@@ -946,7 +1164,7 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
     g.rx[j] = cell.r.x();
     g.ry[j] = cell.r.y();
     g.rz[j] = cell.r.z();
-    if (!single) return;  // the float copies are read by the float own-strand shares only
+    if (!single && !node_sums) return;  // read by the float own-strand shares only
     g.kx_f[j] = static_cast<float>(cell.k[0]);
     g.ky_f[j] = static_cast<float>(cell.k[1]);
     g.kz_f[j] = static_cast<float>(cell.k[2]);
@@ -958,7 +1176,13 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   const NodeVolumes volumes =
       cfg.grid_node_volumes
           ? splatWithNodeVolumes<kCells>(model, L, nodes, gathered, single, state, threads)
-          : splatWithParticleVolumes<kCells>(model, L, nodes, gathered, single, state, threads);
+          : splatWithParticleVolumes<kCells>(model, L, nodes, gathered, single || node_sums,
+                                             node_sums, state, threads);
+  if (node_sums) {
+    const int clumped = displayFromConvolvedNodes<kCells>(model, cfg, L, state, gathered,
+                                                          gathered_strands, at_guides, threads);
+    return at_guides ? clumped + displayFollowersFromGuides(model, cfg, state, threads) : clumped;
+  }
   const WetNodes<double> wet{g.scalar.data(), g.wet_volume.data(), g.qx.data(), g.qy.data(),
                              g.qz.data()};
   // The own strands' shares in float, a strand at a time (strands with a wet particle only;
@@ -1010,23 +1234,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
       all = gatherWet<kCells>(L, wet, ri, h2);
       own = ownStrandShareOf(begin, end, i);
     }
-    double weight_sum = all.weight - own.weight;
-    // Round-off of the cancellation: no other strand within reach.
-    if (!(weight_sum > 1e-9 * own.weight)) {
-      if (at_guides) state->guide_clump_offset[i] = Vec3::Zero();
-      write.unmoved(i, p[i]);
-      return 0;
-    }
-    const Vec3 pull = all.pull - own.pull;
-    if (cfg.include_self) weight_sum += g.volume[i] * poly6Shape(0.0, h2);
-    const Vec3 offset = clumpOffset(pull, weight_sum, cfg.tightness);
-    if (at_guides) state->guide_clump_offset[i] = offset;
-    if (!wet_particle) {
-      write.unmoved(i, p[i]);
-      return 0;
-    }
-    write(i, p[i], offset);
-    return 1;
+    return writeClumpOffset(cfg, all, own, g.volume[i] * poly6Shape(0.0, h2), wet_particle,
+                            at_guides, i, p[i], write, state);
   }));
   return at_guides ? clumped + displayFollowersFromGuides(model, cfg, state, threads) : clumped;
 }

@@ -147,6 +147,7 @@ std::string RunSummary::toJson() const {
       .add("cohesion_gather_at", cohesion_gather_at)
       .add("cohesion_refresh_period_s", cohesion_refresh_period_s)
       .add("cohesion_node_volumes", cohesion_node_volumes)
+      .add("cohesion_wet_sums", cohesion_wet_sums)
       .add("cohesion_float_lanes", cohesion_float_lanes)
       .add("time_s", time_s)
       .add("energy", energy)
@@ -286,6 +287,10 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   s.cohesion_gather_at = c.gather_at;
   s.cohesion_refresh_period_s = c.refresh_period_s;
   s.cohesion_node_volumes = c.mode == "ours" && c.evaluation == "grid" && c.grid_node_volumes;
+  // The node volumes keep the gathers (CohesionConfig::grid_wet_sums).
+  s.cohesion_wet_sums = c.mode != "ours" || c.evaluation != "grid" ? ""
+                        : c.grid_node_volumes                      ? "particles"
+                                                                   : c.grid_wet_sums;
   s.cohesion_float_lanes = c.mode == "ours" && c.evaluation == "grid" && c.grid_single_precision
                                ? kCohesionFloatLanes
                                : 0;

@@ -52,6 +52,12 @@ TEST(Config, CohesionEvaluationDefaultIsTheBenchmarksChoice) {
                           ? std::stoi(choice.at("solver.cohesion.grid_cells_per_radius"))
                           : 4;
     EXPECT_EQ(CohesionConfig().grid_cells_per_radius, cells);
+    // Where the lattice's sums run (a file from before the node sums were a candidate: the
+    // particles).
+    const std::string wet_sums = choice.count("solver.cohesion.grid_wet_sums")
+                                     ? choice.at("solver.cohesion.grid_wet_sums")
+                                     : "particles";
+    EXPECT_EQ(CohesionConfig().grid_wet_sums, wet_sums);
   }
 }
 

@@ -50,11 +50,12 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   for (const char* key :
        {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"", "\"wall_s\"", "\"sim_s\"",
         "\"max_strain\"", "\"mean_strain\"", "\"max_penetration_m\"", "\"repairs\"", "\"energy\"",
-        "\"finite\"", "\"cpu\"", "\"cohesion_float_lanes\""})
+        "\"finite\"", "\"cpu\"", "\"cohesion_float_lanes\"", "\"cohesion_wet_sums\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
   EXPECT_EQ(s.cpu, describeThisCpu());
   // The built-in scene's lattice runs in float, in the lanes the build chose for its CPU.
   EXPECT_EQ(s.cohesion_float_lanes, kCohesionFloatLanes);
+  EXPECT_EQ(s.cohesion_wet_sums, "particles");
 }
 
 TEST(OfflineRun, TheCpuIsNamedWithItsFamilyModelAndAvx512) {

@@ -204,6 +204,13 @@ struct CohesionConfig {
   /// gather_at "guides"). Cheaper, with a larger error against exact (docs/physics.md §7.3);
   /// opt-in.
   bool grid_node_volumes = false;
+  /// "grid": where eq. (10)'s sums over all strands are evaluated. "particles": each wet
+  /// particle gathers the nodes within h (about 113 at 3 nodes per radius). "nodes": the splatted
+  /// sums are convolved once per node with the node kernel and interpolated from a particle's
+  /// cell, as the densities are; the own strand is then subtracted as exact pairs where the other
+  /// strands outweigh it, else through the same lattice functional (docs/physics.md §7.3).
+  /// Particle volumes only: with grid_node_volumes the gathers run.
+  std::string grid_wet_sums = "particles";
   /// Where eq. (10)'s sums are evaluated when the groom has followers (followers.h): "all"
   /// output particles, or the "guides" only, each follower then taking its guides' display
   /// offsets interpolated as its position is (docs/followers.md: about half the cost, but not a

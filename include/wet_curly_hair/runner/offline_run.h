@@ -207,12 +207,14 @@ struct RunSummary {
   /// The cohesion display pass that ran: "off", "exact" or "grid<nodes per radius>" (mode
   /// "ours"; the baselines' mode otherwise), where its sums ran (solver.cohesion.gather_at), how
   /// often its offsets were refreshed (refresh_period_s; 0: every step) and whether the lattice
-  /// took its volumes at its nodes (grid_node_volumes), and the float lanes of its vectors
-  /// (kCohesionFloatLanes, set by the build's CPU; 0 unless the lattice ran in float).
+  /// took its volumes at its nodes (grid_node_volumes), where the lattice's sums of eq. (10) ran
+  /// (grid_wet_sums: "particles" or "nodes"; "" without the lattice), and the float lanes of its
+  /// vectors (kCohesionFloatLanes, set by the build's CPU; 0 unless the lattice ran in float).
   std::string cohesion;
   std::string cohesion_gather_at;
   double cohesion_refresh_period_s = 0.0;
   bool cohesion_node_volumes = false;
+  std::string cohesion_wet_sums;
   int cohesion_float_lanes = 0;
   /// Per solver stage (stageName order), summed over the run: particles it ran on and CPU
   /// seconds (all threads).
