@@ -1003,9 +1003,10 @@ constexpr double kSingleGuard = 1e-2;
 /// strand (the own share subtracted, A13; self_weight V_i W(0) added back with include_self),
 /// written as p^w (dry particles, gathered with gather_at "guides" for their offsets, keep p^w =
 /// p). Returns 1 when the particle moved.
-inline int writeClumpOffset(const CohesionConfig& cfg, const WetSums& all, const WetSums& own,
-                            double self_weight, bool wet_particle, bool at_guides, int i,
-                            const Vec3& p, const detail::DisplayWrite& write, HairState* state) {
+WCH_INLINE int writeClumpOffset(const CohesionConfig& cfg, const WetSums& all, const WetSums& own,
+                                double self_weight, bool wet_particle, bool at_guides, int i,
+                                const Vec3& p, const detail::DisplayWrite& write,
+                                HairState* state) {
   double weight_sum = all.weight - own.weight;
   // Round-off of the cancellation: no other strand within reach.
   if (!(weight_sum > 1e-9 * own.weight)) {
