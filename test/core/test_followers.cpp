@@ -295,11 +295,12 @@ TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
   // so the guides' sums, and their p^w, are those of the sums at every particle to the bit; the
   // followers' differ (interpolated) but stay within the kernel's reach, lambda h, of their
   // positions.
-  for (const char* evaluation : {"exact", "grid", "grid node volumes"}) {
+  for (const char* evaluation : {"exact", "grid", "grid node volumes", "grid node sums"}) {
     SolverConfig all;
     all.cohesion.gather_at = "all";
     all.cohesion.evaluation = std::string(evaluation).substr(0, 5) == "exact" ? "exact" : "grid";
     all.cohesion.grid_node_volumes = std::string(evaluation) == "grid node volumes";
+    if (std::string(evaluation) == "grid node sums") all.cohesion.grid_wet_sums = "nodes";
     SolverConfig guides = all;
     guides.cohesion.gather_at = "guides";
     const HairModel m = followerModel(curlyGroom(60), 4, all);
@@ -325,9 +326,10 @@ TEST(Followers, WithTheSumsAtTheGuidesTheGuidesDisplayIsUnchanged) {
 TEST(Followers, WithoutFollowersTheSumsAtTheGuidesAreTheSumsAtEveryParticle) {
   // With K = 1 every strand is a guide: a groom without followers gets the sums at every
   // particle either way, p^w to the bit.
-  for (const char* evaluation : {"exact", "grid"}) {
+  for (const char* evaluation : {"exact", "grid", "grid node sums"}) {
     SolverConfig all;
-    all.cohesion.evaluation = evaluation;
+    all.cohesion.evaluation = std::string(evaluation).substr(0, 5) == "exact" ? "exact" : "grid";
+    if (std::string(evaluation) == "grid node sums") all.cohesion.grid_wet_sums = "nodes";
     all.cohesion.gather_at = "all";
     SolverConfig guides = all;
     guides.cohesion.gather_at = "guides";
