@@ -15,7 +15,7 @@
 // usage: bench_follower_placement [--strands N] [--follow-ratio K] [--warm-frames F] [--runs R]
 //                                 [--threads T] [--stage placement|display] [--gather-at
 //                                 all|guides] [--node-volumes true|false]
-//                                 [--wet-sums particles|nodes] [--cells 2..16]
+//                                 [--wet-sums auto|particles|nodes] [--cells 2..16]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +24,7 @@
 
 #include "bench_common.h"
 #include "wet_curly_hair/core/cohesion.h"
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -82,7 +83,8 @@ bool parse(int argc, char** argv, Options* o) {
          o->threads > 0 && (o->stage == "placement" || o->stage == "display") &&
          (o->gather_at == "all" || o->gather_at == "guides") &&
          (o->node_volumes == "true" || o->node_volumes == "false") &&
-         (o->wet_sums == "particles" || o->wet_sums == "nodes") && o->cells >= 2 && o->cells <= 16;
+         (o->wet_sums == "auto" || o->wet_sums == "particles" || o->wet_sums == "nodes") &&
+         o->cells >= 2 && o->cells <= 16;
 }
 
 }  // namespace
@@ -94,7 +96,7 @@ int main(int argc, char** argv) {
                  "usage: bench_follower_placement [--strands N > 0] [--follow-ratio K > 1] "
                  "[--warm-frames F >= 0] [--runs R > 0] [--threads T > 0] "
                  "[--stage placement|display] [--gather-at all|guides] "
-                 "[--node-volumes true|false] [--wet-sums particles|nodes] [--cells 2..16]\n");
+                 "[--node-volumes true|false] [--wet-sums auto|particles|nodes] [--cells 2..16]\n");
     return 2;
   }
   io::SceneConfig config = io::builtinScene();
@@ -128,11 +130,15 @@ int main(int argc, char** argv) {
     ns.push_back((bench::now() - t0) / timed * 1e9);
   }
   std::sort(ns.begin(), ns.end());
+  // The lattice the display pass ran (grid_wet_sums "auto" resolved for this groom).
+  const CohesionLattice lattice = cohesionLattice(model, scene.solver.cohesion);
+  const std::string pass = "display pass, sums at " + o.gather_at + ", " + o.wet_sums + ": " +
+                           (lattice.node_sums ? "at the nodes" : "at the particles") + ", " +
+                           std::to_string(lattice.cells_per_radius) + " nodes per radius";
   std::printf(
-      "%s\n%d strands, K = %d (%d %s particles), %s, %d nodes per radius, %d thread(s), %d runs: "
+      "%s\n%d strands, K = %d (%d %s particles), %s, %d thread(s), %d runs: "
       "median %.1f ns, fastest %.1f ns per particle\n",
       bench::cpuLine().c_str(), o.strands, o.follow_ratio, timed, display ? "output" : "follower",
-      display ? ("display pass, sums at " + o.gather_at + ", " + o.wet_sums).c_str() : "placement",
-      o.cells, o.threads, o.runs, ns[ns.size() / 2], ns.front());
+      display ? pass.c_str() : "placement", o.threads, o.runs, ns[ns.size() / 2], ns.front());
   return 0;
 }

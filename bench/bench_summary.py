@@ -318,6 +318,16 @@ def cohesion_choice(rs):
     return best[0] if best else None
 
 
+def sums_cell(r):
+    """Where a lattice row's sums ran: at the particles or the nodes, or "auto" and the lattice it
+    resolved to (its row is that lattice's)."""
+    if r["evaluation"] != "grid":
+        return "-"
+    if r["wet_sums"] == "auto":
+        return "auto: %s" % (r.get("lattice") or "?")
+    return "at the " + r["wet_sums"]
+
+
 def cohesion(out, rs):
     out.append("\n## Cohesion display pass (fully wet, still head, 0.2 s)\n")
     out.append("CPU per wet particle-frame, clump distance, and the output positions' RMS distance "
@@ -331,7 +341,7 @@ def cohesion(out, rs):
         out.append("| %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             r["strands"], r["evaluation"],
             r["cells_per_radius"] if r["evaluation"] == "grid" else "-",
-            ("at the " + r["wet_sums"]) if r["evaluation"] == "grid" else "-",
+            sums_cell(r),
             fmt(float(r["us_per_wet_particle_frame"])), fmt(1e3 * float(r["clump_distance_m"]), 4),
             fmt(1e3 * float(err)) if err else "-",
             ("%.1f %%" % (100 * float(r["pw_rms_vs_exact_rel"]))) if err else "-",
@@ -340,7 +350,8 @@ def cohesion(out, rs):
     if choice:
         out.append("\nChosen (clump distance within 1 %% of exact's and p^w within 1 %% of the "
                    "length at every count, cheapest): %s%s.\n"
-                   % (choice[0], ", %d nodes per radius, sums at the %s" % (choice[1], choice[2])
+                   % (choice[0], ", %d nodes per radius, sums %s" % (
+                       choice[1], "auto" if choice[2] == "auto" else "at the " + choice[2])
                       if choice[0] == "grid" else ""))
 
 

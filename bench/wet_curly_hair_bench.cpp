@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "bench_common.h"
+#include "wet_curly_hair/core/cohesion_grid.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/shape_stats.h"
 #include "wet_curly_hair/core/solver.h"
@@ -600,6 +601,43 @@ int benchScaling(const Options& opt, bool* all_ok) {
   return 0;
 }
 
+/// A cohesion candidate of benchCohesion.
+struct CohesionCandidate {
+  const char* evaluation;
+  int cells;             ///< lattice nodes per kernel radius (grid only)
+  const char* wet_sums;  ///< solver.cohesion.grid_wet_sums (grid only)
+};
+
+/// benchCohesion's scene: fully wet, still, `count` strands, the candidate's evaluation.
+bool cohesionScene(const Options& opt, const CohesionCandidate& ev, int count,
+                   io::SceneConfig* scene, std::string* why) {
+  BenchScene b{"cohesion",
+               "fully wet, still",
+               {{"saturation.root", "1"},
+                {"saturation.tip", "1"},
+                {"solver.cohesion.evaluation", "\"" + std::string(ev.evaluation) + "\""},
+                {"solver.cohesion.grid_cells_per_radius", std::to_string(ev.cells)},
+                {"solver.cohesion.grid_wet_sums", "\"" + std::string(ev.wet_sums) + "\""}},
+               "still"};
+  return makeScene(b, count, opt.quick ? 0.1 : 0.2, scene, why);
+}
+
+/// The lattice an evaluation runs on the scene's model, as "grid<nodes per radius> <where the
+/// sums ran>" (grid_wet_sums "auto" resolved), or "exact".
+bool cohesionLatticeName(const io::SceneConfig& scene, std::string* name, std::string* why) {
+  if (scene.solver.cohesion.evaluation != "grid") {
+    *name = scene.solver.cohesion.evaluation;
+    return true;
+  }
+  wet_curly_hair::HairModel model;
+  if (!io::buildSceneModel(scene, &model, why)) return false;
+  const wet_curly_hair::CohesionLattice lattice =
+      wet_curly_hair::cohesionLattice(model, scene.solver.cohesion);
+  *name = "grid" + std::to_string(lattice.cells_per_radius) +
+          (lattice.node_sums ? " nodes" : " particles");
+  return true;
+}
+
 /// The cohesion display pass on its own: exact and the lattice evaluations.
 /// Returns 2 when a run fails, 0 otherwise; *all_ok turns false when a file cannot be written.
 int benchCohesion(const Options& opt, bool* all_ok) {
@@ -611,42 +649,48 @@ int benchCohesion(const Options& opt, bool* all_ok) {
   // so every evaluation sees the same dynamics: its output positions are compared with exact's
   // frame by frame (RMS over the frames and particles, in m, relative to exact's RMS
   // displacement |p^w - p| and to the strand length). The lattice's sums of eq. (10) gathered per
-  // particle, or convolved at the nodes (solver.cohesion.grid_wet_sums) at 5, 4 and 3.
+  // particle, or convolved at the nodes (solver.cohesion.grid_wet_sums) at 4 and 3; "auto" runs
+  // one of those to the bit (test_cohesion), so its row is the row of the lattice it resolves
+  // to at that strand count (the `lattice` column), not a measurement of its own.
   std::ostringstream csv;
-  csv << "strands,evaluation,cells_per_radius,wet_sums,us_per_wet_particle_frame,clump_distance_m,"
-         "pw_rms_vs_exact_m,pw_rms_vs_exact_rel,pw_rms_vs_exact_length,runs\n";
-  struct Evaluation {
-    const char* evaluation;
-    int cells;             ///< lattice nodes per kernel radius (grid only)
-    const char* wet_sums;  ///< solver.cohesion.grid_wet_sums (grid only)
-  };
+  csv << "strands,evaluation,cells_per_radius,wet_sums,lattice,us_per_wet_particle_frame,"
+         "clump_distance_m,pw_rms_vs_exact_m,pw_rms_vs_exact_rel,pw_rms_vs_exact_length,runs\n";
+  typedef CohesionCandidate Evaluation;
   const std::vector<Evaluation> evaluations =
       opt.quick ? std::vector<Evaluation>{{"exact", 4, "particles"},
-                                          {"grid", 4, "particles"},
-                                          {"grid", 4, "nodes"}}
+                                          {"grid", 3, "particles"},
+                                          {"grid", 4, "nodes"},
+                                          {"grid", 3, "auto"}}
                 : std::vector<Evaluation>{{"exact", 4, "particles"}, {"grid", 4, "particles"},
                                           {"grid", 3, "particles"},  {"grid", 2, "particles"},
-                                          {"grid", 5, "nodes"},      {"grid", 4, "nodes"},
-                                          {"grid", 3, "nodes"}};
+                                          {"grid", 4, "nodes"},      {"grid", 3, "nodes"},
+                                          {"grid", 3, "auto"}};
   const std::vector<int> counts =
-      opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000, 2000};
+      opt.quick ? std::vector<int>{6} : std::vector<int>{100, 300, 1000, 2000, 5000};
   for (int count : counts) {
     RunResult exact_frames;
     double displacement_rms = 0.0;
+    std::map<std::string, std::string> measured;  // lattice name -> the row's measured fields
     for (const Evaluation& ev : evaluations) {
       const std::string evaluation = ev.evaluation;
-      BenchScene b{"cohesion",
-                   "fully wet, still",
-                   {{"saturation.root", "1"},
-                    {"saturation.tip", "1"},
-                    {"solver.cohesion.evaluation", "\"" + evaluation + "\""},
-                    {"solver.cohesion.grid_cells_per_radius", std::to_string(ev.cells)},
-                    {"solver.cohesion.grid_wet_sums", "\"" + std::string(ev.wet_sums) + "\""}},
-                   "still"};
       io::SceneConfig scene;
-      if (!makeScene(b, count, opt.quick ? 0.1 : 0.2, &scene, &why)) {
+      std::string lattice;
+      if (!cohesionScene(opt, ev, count, &scene, &why) ||
+          !cohesionLatticeName(scene, &lattice, &why)) {
         std::fprintf(stderr, "wet_curly_hair_bench: cohesion: %s\n", why.c_str());
         return 2;
+      }
+      const std::string key =
+          evaluation + "," + std::to_string(ev.cells) + "," + ev.wet_sums + "," + lattice + ",";
+      if (std::string(ev.wet_sums) == "auto") {
+        if (!measured.count(lattice)) {
+          std::fprintf(stderr, "wet_curly_hair_bench: cohesion: auto ran %s, not a candidate\n",
+                       lattice.c_str());
+          return 2;
+        }
+        csv << count << "," << key << measured[lattice];
+        std::printf("cohesion %6d strands grid   3 auto      runs %s\n", count, lattice.c_str());
+        continue;
       }
       std::vector<double> us;
       RunResult run;
@@ -672,9 +716,11 @@ int benchCohesion(const Options& opt, bool* all_ok) {
       const double error = frameError(frames.frames, exact_frames.frames, 1.0).rms;
       const double relative = displacement_rms > 0.0 ? error / displacement_rms : 0.0;
       const double length = scene.groom.length_m;
-      csv << count << "," << evaluation << "," << ev.cells << "," << ev.wet_sums << ","
-          << fmt(median(us)) << "," << fmt(run.summary.clump_distance_m) << "," << fmt(error) << ","
+      std::ostringstream row;
+      row << fmt(median(us)) << "," << fmt(run.summary.clump_distance_m) << "," << fmt(error) << ","
           << fmt(relative) << "," << fmt(error / length) << "," << repeats << "\n";
+      measured[lattice] = row.str();
+      csv << count << "," << key << row.str();
       std::printf(
           "cohesion %6d strands %-6s %d %-9s %8.2f us per wet particle-frame, clump %.3f mm, "
           "p^w vs exact RMS %.4f mm (%.2f %% of the displacement, %.3f %% of the length)\n",

@@ -1144,12 +1144,11 @@ int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg,
 
 template <int kCells>
 int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const Lattice& L,
-                      int64_t nodes, HairState* state, int threads) {
+                      int64_t nodes, bool node_sums, HairState* state, int threads) {
   CohesionNodeGrid& g = state->cohesion_grid;
   const Vec3List& p = state->position;
   const int n = model.particleCount();
   const double h = cfg.radius_m, h2 = h * h;
-  const bool node_sums = cfg.grid_wet_sums == "nodes" && !cfg.grid_node_volumes;
   const bool single = cfg.grid_single_precision && !node_sums;
   // With gather_at "guides" the sums of eq. (10) run over the guide particles only (wet or dry:
   // wet followers interpolate their display offsets); every particle is still splatted.
@@ -1277,6 +1276,39 @@ void boundingBox(const Vec3List& p, int threads, Vec3* lo, Vec3* hi) {
 
 }  // namespace
 
+double restParticlesPerCell(const HairModel& model, double h, int cells_per_radius) {
+  const int n = model.particleCount();
+  if (n == 0 || !(h > 0.0) || cells_per_radius < 1) return 0.0;
+  const double inv_c = cells_per_radius / h;
+  std::vector<int64_t> cells(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const Vec3& p = model.rest_position_head[i];
+    int64_t key = 0;
+    for (int a = 0; a < 3; ++a)  // 21 bits per axis: +-1e6 cells, a 40 km groom at 4 cm
+      key = (key << 21) | ((static_cast<int64_t>(std::floor(p[a] * inv_c)) + (1 << 20)) & 0x1fffff);
+    cells[static_cast<size_t>(i)] = key;
+  }
+  std::sort(cells.begin(), cells.end());
+  const size_t occupied =
+      static_cast<size_t>(std::unique(cells.begin(), cells.end()) - cells.begin());
+  return double(n) / double(occupied);
+}
+
+CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& c) {
+  CohesionLattice lattice;
+  lattice.cells_per_radius = c.grid_cells_per_radius;
+  if (c.grid_node_volumes) return lattice;
+  if (c.grid_wet_sums == "nodes") {
+    lattice.node_sums = true;
+  } else if (c.grid_wet_sums == "auto" && c.grid_cells_per_radius <= 3 &&
+             model.cohesion_rest_density_cells == c.grid_cells_per_radius + 1 &&
+             model.cohesion_rest_particles_per_cell >= kNodeSumsParticlesPerCell) {
+    lattice.node_sums = true;
+    lattice.cells_per_radius = c.grid_cells_per_radius + 1;
+  }
+  return lattice;
+}
+
 size_t cohesionGridNodeBound(const HairModel& model, const SolverConfig& config) {
   const CohesionConfig& c = config.cohesion;
   if (c.evaluation != "grid" || model.strandCount() == 0) return 0;
@@ -1295,9 +1327,10 @@ size_t cohesionGridNodeBound(const HairModel& model, const SolverConfig& config)
     longest = std::max(longest, std::max(rest, model.strand_length_m[s]));
   }
   const double extent = 2.0 * (root_radius + longest * (1.0 + config.stretch.strain_limit));
-  const double spacing = c.radius_m / c.grid_cells_per_radius;
+  const int cells = cohesionLattice(model, c).cells_per_radius;
+  const double spacing = c.radius_m / cells;
   // The step's margin: (cells + 2) nodes below the box and (cells + 3) above it.
-  const double per_axis = std::ceil(extent / spacing) + 2.0 * c.grid_cells_per_radius + 6.0;
+  const double per_axis = std::ceil(extent / spacing) + 2.0 * cells + 6.0;
   const double nodes = per_axis * per_axis * per_axis;
   if (!std::isfinite(nodes) || nodes > double(kMaxCohesionGridNodes)) return 0;
   return static_cast<size_t>(nodes);
@@ -1310,10 +1343,12 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   const int n = model.particleCount();
   if (n == 0 || g.scalar.empty()) return -1;
   const double h = cfg.radius_m, h2 = h * h;
+  const CohesionLattice lattice = cohesionLattice(model, cfg);
+  const int cells = lattice.cells_per_radius;
   Lattice L;
   L.h = h;
-  L.cells = cfg.grid_cells_per_radius;
-  L.c = h / cfg.grid_cells_per_radius;
+  L.cells = cells;
+  L.c = h / cells;
   L.inv_c = 1.0 / L.c;
   // Trilinear interpolation adds (c^2 / 2) t (1 - t) d2W/dx2 per axis, on average (c^2 / 12)
   // lap W: the nodes hold K = W - (c^2 / 12) lap W = q^3 + 3.5 c^2 q^2 - 2 c^2 h^2 q, whose
@@ -1323,7 +1358,7 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   // interpolated to the particle, pass two interpolations: K = W - (c^2 / 6) lap W (with it
   // the p^w error against exact at 3 nodes per radius is 1.02x the particle gathers', without
   // it 1.21x; test_cohesion MatchesExactOnAWetCurlyScene).
-  if (cfg.grid_cells_per_radius >= 3) {
+  if (cells >= 3) {
     L.ka = 3.5 * L.c * L.c;
     L.kb = -2.0 * L.c * L.c * h2;
     L.ka_both = 2.0 * L.ka;
@@ -1332,7 +1367,7 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   Vec3 lo, hi;
   boundingBox(p, threads, &lo, &hi);
   // Kernel reach plus the trilinear cell on both sides (and one node of slack for round-off).
-  const int64_t margin = cfg.grid_cells_per_radius + 2;
+  const int64_t margin = cells + 2;
   L.origin = lo - Vec3::Constant(double(margin) * L.c);
   const Vec3 span = (hi - L.origin) * L.inv_c;
   if (!span.allFinite() || span.maxCoeff() > 1e6) return -1;
@@ -1345,37 +1380,37 @@ int computeDisplayCohesionGrid(const HairModel& model, const CohesionConfig& cfg
   if (nodes + static_cast<int64_t>(kCohesionGridPadding) > static_cast<int64_t>(g.scalar.size()))
     return -1;
 
-  switch (cfg.grid_cells_per_radius) {  // validated to [2, 16]
+  switch (cells) {  // validated to [2, 16], and 3 or 4 with "auto"
     case 2:
-      return evaluateOnLattice<2>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<2>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 3:
-      return evaluateOnLattice<3>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<3>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 4:
-      return evaluateOnLattice<4>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<4>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 5:
-      return evaluateOnLattice<5>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<5>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 6:
-      return evaluateOnLattice<6>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<6>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 7:
-      return evaluateOnLattice<7>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<7>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 8:
-      return evaluateOnLattice<8>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<8>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 9:
-      return evaluateOnLattice<9>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<9>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 10:
-      return evaluateOnLattice<10>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<10>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 11:
-      return evaluateOnLattice<11>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<11>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 12:
-      return evaluateOnLattice<12>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<12>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 13:
-      return evaluateOnLattice<13>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<13>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 14:
-      return evaluateOnLattice<14>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<14>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 15:
-      return evaluateOnLattice<15>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<15>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     case 16:
-      return evaluateOnLattice<16>(model, cfg, L, nodes, state, threads);
+      return evaluateOnLattice<16>(model, cfg, L, nodes, lattice.node_sums, state, threads);
     default:
       return -1;
   }

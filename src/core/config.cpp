@@ -149,7 +149,7 @@ bool CohesionConfig::validate(const std::string& p, std::string* why) const {
          oneOf(p + "evaluation", evaluation, {"exact", "grid"}, why) &&
          finiteInRange(p + "grid_cells_per_radius", grid_cells_per_radius, 2, 16, why) &&
          oneOf(p + "gather_at", gather_at, {"all", "guides"}, why) &&
-         oneOf(p + "grid_wet_sums", grid_wet_sums, {"particles", "nodes"}, why) &&
+         oneOf(p + "grid_wet_sums", grid_wet_sums, {"auto", "particles", "nodes"}, why) &&
          finiteInRange(p + "refresh_period_s", refresh_period_s, 0.0, 1.0, why);
 }
 

@@ -280,7 +280,8 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   b("solver.cohesion.grid_node_volumes", &c.cohesion.grid_node_volumes,
     "grid evaluation: the volumes m / rho at the lattice nodes (one splat, not two)", false);
   str("solver.cohesion.grid_wet_sums", &c.cohesion.grid_wet_sums,
-      "grid evaluation: eq. 10's sums gathered per particle, or convolved at the nodes", false);
+      "grid evaluation: eq. 10's sums gathered per particle, convolved at the nodes, or auto",
+      true);
   str("solver.cohesion.gather_at", &c.cohesion.gather_at,
       "with followers: eq. 10's sums at all particles, or at the guides (followers interpolate)",
       false);

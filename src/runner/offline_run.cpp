@@ -268,6 +268,15 @@ bool checkOptions(const RunOptions& options, const HairModel& model,
   return true;
 }
 
+/// The lattice the cohesion runs (grid_wet_sums "auto" resolved for the model): the summary's
+/// cohesion "grid<nodes per radius>" and where its sums ran.
+void describeLattice(const CohesionConfig& c, const HairModel& model, RunSummary* s) {
+  if (c.mode != "ours" || c.evaluation != "grid") return;
+  const CohesionLattice lattice = cohesionLattice(model, c);
+  s->cohesion = "grid" + std::to_string(lattice.cells_per_radius);
+  s->cohesion_wet_sums = lattice.node_sums ? "nodes" : "particles";
+}
+
 /// The summary's description of the run (what it is, not what it measured).
 RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, long rss_start_kb) {
   RunSummary s;
@@ -287,10 +296,6 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   s.cohesion_gather_at = c.gather_at;
   s.cohesion_refresh_period_s = c.refresh_period_s;
   s.cohesion_node_volumes = c.mode == "ours" && c.evaluation == "grid" && c.grid_node_volumes;
-  // The node volumes keep the gathers (CohesionConfig::grid_wet_sums).
-  s.cohesion_wet_sums = c.mode != "ours" || c.evaluation != "grid" ? ""
-                        : c.grid_node_volumes                      ? "particles"
-                                                                   : c.grid_wet_sums;
   s.cohesion_float_lanes = c.mode == "ours" && c.evaluation == "grid" && c.grid_single_precision
                                ? kCohesionFloatLanes
                                : 0;
@@ -766,6 +771,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   if (!scene.obstacle_map.file.empty() &&
       !buildObstacleField(scene, model, frames, &obstacles, &s.sdf_build_s, why))
     return false;
+  describeLattice(scene.solver.cohesion, model, &s);
   s.strands = model.strandCount();
   s.guide_strands = model.simulatedStrandCount();
   s.strands_skipped = static_cast<int>(import_report.skipped.size());

@@ -235,38 +235,98 @@ TEST(CohesionGrid, MatchesExactOnAWetCurlyScene) {
   }
 }
 
-TEST(CohesionGrid, SumsConvolvedAtTheNodesAtFourPerRadiusBeatTheDefaultAgainstExact) {
+TEST(CohesionGrid, SumsConvolvedAtTheNodesOneNodeFinerBeatTheGathersAgainstExact) {
   // grid_wet_sums "nodes": the splatted sums convolved at the nodes and interpolated to the
   // particle, two interpolations where the gathers have one, so at the same lattice their error
   // is larger (measured, 300 strands, RMS / RMS displacement and max: 0.145 and 2.98 mm at 3
-  // nodes per radius against the gathers' 0.093 and 2.43 mm; 0.070 and 1.59 mm at 4). The claim
-  // that makes them an option: at 4 nodes per radius they are closer to exact than the default
-  // (the gathers at 3), in RMS and in max. Reference: exact.
-  WetScene scene3(300, 3), scene4(300, 4);
-  HairState exact = scene3.state, gathers = scene3.state, nodes = scene4.state;
-  CohesionConfig c = scene3.solver.cohesion;
-  ASSERT_EQ(c.grid_wet_sums, "particles");
-  ASSERT_EQ(c.grid_cells_per_radius, 3);
-  c.evaluation = "exact";
-  computeDisplayCohesion(scene3.model, c, &exact);
-  c.evaluation = "grid";
-  computeDisplayCohesion(scene3.model, c, &gathers);
-  CohesionConfig c4 = scene4.solver.cohesion;
-  c4.grid_wet_sums = "nodes";
-  const int n_nodes = computeDisplayCohesion(scene4.model, c4, &nodes);
-  EXPECT_EQ(nodes.warnings.cohesion_grid_fallbacks, 0u);
-  for (size_t i = 0; i < nodes.position.size(); ++i)  // the same dynamics in both scenes
-    ASSERT_EQ(nodes.position[i], exact.position[i]);
-  const Discrepancy dg = compare(exact, gathers), dn = compare(exact, nodes);
-  std::printf(
-      "%d clumped; |p^w - p^w_exact| RMS / RMS displacement, max: gathers at 3 %.4f, %.4f mm; "
-      "nodes at 4 %.4f, %.4f mm\n",
-      n_nodes, dg.rms_m / dg.rms_disp_m, 1e3 * dg.max_m, dn.rms_m / dn.rms_disp_m, 1e3 * dn.max_m);
-  EXPECT_GT(n_nodes, 9000);
-  EXPECT_LT(dn.rms_m, dg.rms_m);
-  EXPECT_LT(dn.max_m, dg.max_m);
-  for (size_t i = 0; i < nodes.position.size(); ++i)
-    ASSERT_EQ(nodes.position[i], scene4.state.position[i]) << "the display pass moved hair";
+  // nodes per radius against the gathers' 0.093 and 2.43 mm; 0.070 and 1.59 mm at 4 against
+  // 0.038 and 1.14 mm). What "auto" relies on: one node per radius finer they are closer to exact
+  // than the gathers, from 2 and from 3 (the default), in RMS and in max. Reference: exact.
+  for (int cells : {2, 3}) {
+    WetScene coarse(300, cells), fine(300, cells + 1);
+    HairState exact = coarse.state, gathers = coarse.state, nodes = fine.state;
+    CohesionConfig c = coarse.solver.cohesion;
+    c.grid_wet_sums = "particles";
+    c.evaluation = "exact";
+    computeDisplayCohesion(coarse.model, c, &exact);
+    c.evaluation = "grid";
+    computeDisplayCohesion(coarse.model, c, &gathers);
+    CohesionConfig c_fine = fine.solver.cohesion;
+    c_fine.grid_wet_sums = "nodes";
+    const int n_nodes = computeDisplayCohesion(fine.model, c_fine, &nodes);
+    EXPECT_EQ(nodes.warnings.cohesion_grid_fallbacks, 0u);
+    for (size_t i = 0; i < nodes.position.size(); ++i)  // the same dynamics in both scenes
+      ASSERT_EQ(nodes.position[i], exact.position[i]);
+    const Discrepancy dg = compare(exact, gathers), dn = compare(exact, nodes);
+    std::printf(
+        "%d clumped; |p^w - p^w_exact| RMS / RMS displacement, max: gathers at %d %.4f, %.4f mm; "
+        "nodes at %d %.4f, %.4f mm\n",
+        n_nodes, cells, dg.rms_m / dg.rms_disp_m, 1e3 * dg.max_m, cells + 1,
+        dn.rms_m / dn.rms_disp_m, 1e3 * dn.max_m);
+    EXPECT_GT(n_nodes, 9000);
+    EXPECT_LT(dn.rms_m, dg.rms_m) << cells;
+    EXPECT_LT(dn.max_m, dg.max_m) << cells;
+    for (size_t i = 0; i < nodes.position.size(); ++i)
+      ASSERT_EQ(nodes.position[i], fine.state.position[i]) << "the display pass moved hair";
+  }
+}
+
+TEST(CohesionGrid, RestParticlesPerCellCountsTheOccupiedCells) {
+  // Two strands of 5 particles 1 mm apart in one 1 cm cell (h = 4 cm at 4 nodes per radius): 10
+  // particles in 1 cell; the same strands with their particles 2 cm apart: 10 cells.
+  SolverConfig sc;
+  const HairModel packed = strandsModel(2, 5, sc, [](int s, int i) -> Vec3 {
+    return Vec3(0.002 + 0.001 * s, 0.002, -0.002 - 0.001 * i);
+  });
+  const HairModel spread = strandsModel(2, 5, sc, [](int s, int i) -> Vec3 {
+    return Vec3(0.005 + 0.02 * s, 0.005, -0.005 - 0.02 * i);
+  });
+  EXPECT_DOUBLE_EQ(restParticlesPerCell(packed, 0.04, 4), 10.0);
+  EXPECT_DOUBLE_EQ(restParticlesPerCell(spread, 0.04, 4), 1.0);
+}
+
+TEST(CohesionGrid, AutoTakesTheNodeSumsOneNodeFinerWhereTheHairIsDense) {
+  // grid_wet_sums "auto": 400 strands of 10 particles packed 1 mm apart hold far more than
+  // kNodeSumsParticlesPerCell particles per 1 cm cell; three strands 6 mm and 30 cm apart hold
+  // about 1.
+  SolverConfig sc;
+  sc.cohesion.evaluation = "grid";
+  sc.cohesion.grid_wet_sums = "auto";
+  const HairModel dense = strandsModel(400, 10, sc, [](int s, int i) -> Vec3 {
+    return Vec3(0.001 * (s % 20), 0.001 * (s / 20), -0.008 * i);
+  });
+  const HairModel sparse = strandsModel(3, 10, sc, [](int s, int i) -> Vec3 {
+    return (s == 2 ? Vec3(0.3, 0, 0) : Vec3(s * 0.006, 0, 0)) + Vec3(0, 0, -0.008 * i);
+  });
+  EXPECT_GT(dense.cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell);
+  EXPECT_LT(sparse.cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell);
+  const CohesionLattice on_dense = cohesionLattice(dense, sc.cohesion);
+  EXPECT_TRUE(on_dense.node_sums);
+  EXPECT_EQ(on_dense.cells_per_radius, 4);
+  const CohesionLattice on_sparse = cohesionLattice(sparse, sc.cohesion);
+  EXPECT_FALSE(on_sparse.node_sums);
+  EXPECT_EQ(on_sparse.cells_per_radius, 3);
+  // The gathers wherever the node sums one node finer were not measured closer to exact, and
+  // with the node volumes.
+  CohesionConfig c = sc.cohesion;
+  c.grid_cells_per_radius = 4;
+  EXPECT_FALSE(cohesionLattice(dense, c).node_sums) << "the density was measured at 4, not 5";
+  c = sc.cohesion;
+  c.grid_node_volumes = true;
+  EXPECT_FALSE(cohesionLattice(dense, c).node_sums);
+  // On the dense hair, wet, "auto" is the node sums at 4 to the bit.
+  HairState a = makeState(dense, Pose(), Twist());
+  std::fill(a.saturation.begin(), a.saturation.end(), 1.0);
+  HairState b = a;
+  const int n_auto = computeDisplayCohesion(dense, sc.cohesion, &a, 2);
+  c = sc.cohesion;
+  c.grid_wet_sums = "nodes";
+  c.grid_cells_per_radius = 4;
+  const int n_nodes = computeDisplayCohesion(dense, c, &b, 2);
+  EXPECT_GT(n_auto, 0);
+  EXPECT_EQ(n_auto, n_nodes);
+  EXPECT_EQ(a.warnings.cohesion_grid_fallbacks + b.warnings.cohesion_grid_fallbacks, 0u);
+  for (int i = 0; i < dense.particleCount(); ++i) ASSERT_EQ(a.wet_position[i], b.wet_position[i]);
 }
 
 TEST(CohesionGrid, NodeVolumesMatchExactWithinAFifthOfTheDisplacement) {

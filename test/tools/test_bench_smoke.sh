@@ -17,8 +17,8 @@ check() { if eval "$2"; then pass=$((pass + 1)); else echo "FAIL: $1"; fail=$((f
 # replace $? with its own).
 bench_rc=$?
 check "runs and exits 0 (got $bench_rc; stderr: $(head -c 300 "$out/stderr"))" "[ $bench_rc -eq 0 ]"
-check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv (exact, the gathers and the node sums)" \
-  "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 4 ] && grep -q ',grid,4,nodes,' $out/b/cohesion.csv"
+check "writes work_precision.csv, reference.csv, scaling.csv, gating.csv and cohesion.csv (exact, the gathers, the node sums, auto as the gathers on 6 strands)" \
+  "[ -s $out/b/work_precision.csv ] && [ -s $out/b/reference.csv ] && [ -s $out/b/scaling.csv ] && [ \$(wc -l < $out/b/gating.csv) -eq 5 ] && [ \$(wc -l < $out/b/cohesion.csv) -eq 5 ] && grep -q ',grid,4,nodes,' $out/b/cohesion.csv && grep -q ',grid,3,auto,grid3 particles,' $out/b/cohesion.csv"
 # The built-in scene as shipped: one row with the defaults' integrator and a real-time factor.
 check "builtin.csv: the shipped scene at the defaults, a positive real-time factor" "/usr/bin/python3 - <<PY
 import csv, sys
@@ -130,6 +130,11 @@ check "bench_follower_placement --stage display reports the time per output part
 placement_rc=$?
 check "bench_follower_placement --node-volumes true runs (got $placement_rc)" \
   "[ $placement_rc -eq 0 ] && grep -q 'display pass, sums at guides, .*ns per particle' $out/display_nv.txt"
+"$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 3 --stage display \
+  --wet-sums nodes --cells 4 > "$out/display_nodes.txt" 2>&1
+placement_rc=$?
+check "bench_follower_placement --wet-sums nodes --cells 4 names the lattice it ran (got $placement_rc)" \
+  "[ $placement_rc -eq 0 ] && grep -q 'sums at all, nodes: at the nodes, 4 nodes per radius, .*ns per particle' $out/display_nodes.txt"
 "$placement" --follow-ratio 1 > /dev/null 2> "$out/placement_err"
 placement_rc=$?
 check "bench_follower_placement refuses --follow-ratio 1 (got $placement_rc)" \

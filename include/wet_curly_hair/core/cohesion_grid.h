@@ -53,6 +53,31 @@ constexpr int kCohesionFloatLanes = 8;
 static_assert(kCohesionFloatLanes == 8 || kCohesionFloatLanes == 16,
               "WCH_COHESION_FLOAT_LANES is 8 or 16");
 
+/// The lattice a "grid" evaluation runs: its nodes per kernel radius and where eq. (10)'s sums
+/// run (CohesionConfig::grid_wet_sums resolved).
+struct CohesionLattice {
+  int cells_per_radius = 0;
+  bool node_sums = false;  ///< convolved at the nodes, else gathered at each particle
+};
+
+/// grid_wet_sums "auto" takes the node sums where the hair at rest holds at least this many
+/// particles per occupied cell of their lattice: their convolution costs per node with mass, the
+/// gathers per particle. Measured, the fully wet bench scene on a fifth-generation AMD EPYC
+/// (docs/physics.md §7.3): the two cost the same at 2,000 strands, 4.8 particles per cell at 4
+/// nodes per radius; 1,000 strands hold 2.9, 10,000 hold 19.6.
+constexpr double kNodeSumsParticlesPerCell = 5.0;
+
+/// The particles per occupied lattice cell of the model at rest (head frame), cells of h /
+/// cells_per_radius: what the node sums' cost is measured against (kNodeSumsParticlesPerCell).
+double restParticlesPerCell(const HairModel& model, double h, int cells_per_radius);
+
+/// CohesionConfig::grid_wet_sums resolved for the model: "particles" and "nodes" at
+/// grid_cells_per_radius as given; "auto" the node sums one node per radius finer, where they
+/// are closer to exact than the gathers (from 2 and 3 nodes per radius: docs/physics.md §7.3),
+/// when the hair at rest is dense enough (HairModel::cohesion_rest_particles_per_cell), else the
+/// gathers. The node volumes keep the gathers.
+CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& config);
+
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
 /// strand's (strain-limited) length of its root, and the roots within their rest bounding
 /// sphere, so every axis of the box spans at most 2 (root sphere radius + longest strand); plus
