@@ -9,7 +9,8 @@ Target 3 (every strand simulated, theta at 1/240 s, no display pass) and target 
 with --follow-ratio 10) run through wet_curly_hair_run with --no-measure, as in the README. Prints,
 per target, the median real-time factor, the range over the runs and the stages' CPU seconds of
 the median run, with the CPU as the runner names it (its JSON's `cpu`: name, family, model,
-avx512f) and the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`); writes
+avx512f), the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`) and the
+lattice the defaults ran on the groom (`cohesion`, `cohesion_wet_sums`); writes
 OUT/targets_10k.csv (every run). The node's target has its own script (bench/node_10k.sh),
 since it needs a ROS graph.
 """
@@ -68,11 +69,14 @@ def main():
                 print("run %d %-25s RTF %.3f" % (k + 1, name, summary["realtime_factor"]),
                       flush=True)
     cpu = next(iter(runs.values()))[0]["cpu"]
-    # The build's choices for this CPU: the strand lanes and the lattice's float lanes.
+    # The build's choices for this CPU: the strand lanes and the lattice's float lanes; and the
+    # lattice the defaults ran on this groom (grid_wet_sums "auto" resolved).
     layout = runs["defaults_follow_ratio_10"][0]
-    print("\n%s, %d threads, %d strands, %g s, %d runs each; lanes %s, lattice floats %s" %
+    print("\n%s, %d threads, %d strands, %g s, %d runs each; lanes %s, lattice floats %s; "
+          "cohesion %s, sums at the %s" %
           (cpu, args.threads, args.strands, args.seconds, args.runs, layout.get("lane_layout"),
-           layout.get("cohesion_float_lanes")))
+           layout.get("cohesion_float_lanes"), layout.get("cohesion"),
+           layout.get("cohesion_wet_sums")))
     for name, summaries in runs.items():
         rtf = sorted(s["realtime_factor"] for s in summaries)
         median_run = min(summaries, key=lambda s: abs(s["realtime_factor"] - statistics.median(rtf)))

@@ -162,8 +162,8 @@ check "bench_lattice_error refuses --frames 1 (got $lattice_rc)" \
 targets_rc=$?
 check "targets_10k.py runs (got $targets_rc; $(tail -c 300 "$out/targets.txt"))" \
   "[ $targets_rc -eq 0 ]"
-check "targets_10k.py names the lanes the build chose for the CPU" \
-  "grep -Eq 'lanes float(8|16), lattice floats (8|16)\$' $out/targets.txt"
+check "targets_10k.py names the lanes the build chose for the CPU and the lattice that ran" \
+  "grep -Eq 'lanes float(8|16), lattice floats (8|16); cohesion grid[34], sums at the (particles|nodes)\$' $out/targets.txt"
 check "targets_10k.py prints both targets' medians and writes every run" \
   "grep -q '^simulated_theta_240 .*RTF median' $out/targets.txt && grep -q '^defaults_follow_ratio_10 .*RTF median' $out/targets.txt && [ \$(grep -c ',[12],' $out/targets/targets_10k.csv) -eq 4 ] && head -1 $out/targets/targets_10k.csv | grep -q 'avx512f'"
 /usr/bin/python3 "$here/bench/targets_10k.py" --build "$build" --runs 0 > /dev/null \
