@@ -306,11 +306,18 @@ TEST(CohesionGrid, AutoTakesTheNodeSumsOneNodeFinerWhereTheHairIsDense) {
   const CohesionLattice on_sparse = cohesionLattice(sparse, sc.cohesion);
   EXPECT_FALSE(on_sparse.node_sums);
   EXPECT_EQ(on_sparse.cells_per_radius, 3);
-  // The gathers wherever the node sums one node finer were not measured closer to exact, and
-  // with the node volumes.
+  // The gathers at every other lattice (the threshold is the crossover of the gathers at 3 and
+  // the node sums at 4), and with the node volumes.
   CohesionConfig c = sc.cohesion;
   c.grid_cells_per_radius = 4;
   EXPECT_FALSE(cohesionLattice(dense, c).node_sums) << "the density was measured at 4, not 5";
+  SolverConfig sc2 = sc;
+  sc2.cohesion.grid_cells_per_radius = 2;
+  const HairModel dense2 = strandsModel(400, 10, sc2, [](int s, int i) -> Vec3 {
+    return Vec3(0.001 * (s % 20), 0.001 * (s / 20), -0.008 * i);
+  });
+  EXPECT_GT(dense2.cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell);
+  EXPECT_FALSE(cohesionLattice(dense2, sc2.cohesion).node_sums) << "auto from 2 nodes per radius";
   c = sc.cohesion;
   c.grid_node_volumes = true;
   EXPECT_FALSE(cohesionLattice(dense, c).node_sums);

@@ -72,10 +72,10 @@ constexpr double kNodeSumsParticlesPerCell = 5.0;
 double restParticlesPerCell(const HairModel& model, double h, int cells_per_radius);
 
 /// CohesionConfig::grid_wet_sums resolved for the model: "particles" and "nodes" at
-/// grid_cells_per_radius as given; "auto" the node sums one node per radius finer, where they
-/// are closer to exact than the gathers (from 2 and 3 nodes per radius: docs/physics.md §7.3),
-/// when the hair at rest is dense enough (HairModel::cohesion_rest_particles_per_cell), else the
-/// gathers. The node volumes keep the gathers.
+/// grid_cells_per_radius as given; "auto" at 3 nodes per radius the node sums at 4, closer to
+/// exact than the gathers at 3 (docs/physics.md §7.3), when the hair at rest is dense enough
+/// (HairModel::cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell: measured for that
+/// pair), else the gathers; at other lattices the gathers. The node volumes keep the gathers.
 CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& config);
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
