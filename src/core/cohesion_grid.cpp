@@ -1040,7 +1040,8 @@ struct ConvolvedWetNodes {
 };
 
 /// The sums of eq. (10) at a particle from its cell's 8 convolved nodes (trilinear), as WetSums:
-/// a cell's two nodes along x hold 8 consecutive wet sums, one vector.
+/// a cell's two nodes along x hold 8 consecutive wet sums, one vector; the volume as the
+/// densities take theirs (interpolateNodes).
 WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes& c,
                                       const CellPosition& cell) {
   typedef Lanes<double>::type D;
@@ -1052,13 +1053,8 @@ WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes&
   const double weight[4] = {(1.0 - ty) * (1.0 - tz), ty * (1.0 - tz), (1.0 - ty) * tz, ty * tz};
   const D along_x = {1.0 - tx, 1.0 - tx, 1.0 - tx, 1.0 - tx, tx, tx, tx, tx};
   D wet = {};
-  double volume = 0.0;
-  for (int k = 0; k < 4; ++k) {
-    wet += (weight[k] * along_x) * loadLanes<D>(c.wet + 4 * corner[k]);
-    const double* v = c.volume + corner[k];
-    volume += weight[k] * ((1.0 - tx) * v[0] + tx * v[1]);
-  }
-  return wetSums(L, cell.r, volume, wet[0] + wet[4],
+  for (int k = 0; k < 4; ++k) wet += (weight[k] * along_x) * loadLanes<D>(c.wet + 4 * corner[k]);
+  return wetSums(L, cell.r, interpolateNodes(L, cell, c.volume), wet[0] + wet[4],
                  Vec3(wet[1] + wet[5], wet[2] + wet[6], wet[3] + wet[7]));
 }
 
