@@ -387,11 +387,13 @@ struct WetSums {
 
 /// A gather's sums at the particle r (relative to the origin), sum W V, sum W S and sum W P,
 /// as eq. (10)'s weight and pull (WetNodes).
-inline WetSums wetSums(const Lattice& L, const Vec3& r, double weight, double wet,
-                       const Vec3& pull_from_reference) {
+WCH_INLINE WetSums wetSums(const Lattice& L, const Vec3& r, double weight, double wet,
+                           const Vec3& pull_from_reference) {
   WetSums sums;
   sums.weight = weight;
-  sums.pull = pull_from_reference - (r - L.reference) * wet;
+  // Coordinate by coordinate: as one Eigen expression GCC called it out of line, through the
+  // PLT, once per particle (the node sums' last pass took 1.2x as long).
+  for (int a = 0; a < 3; ++a) sums.pull[a] = pull_from_reference[a] - (r[a] - L.reference[a]) * wet;
   return sums;
 }
 
@@ -766,7 +768,8 @@ struct NodeTaps {
 /// no particle reads (the lattice's margin and padding), and nodes outside the blocks keep
 /// whatever they held. A block sums every tap into registers and is stored once (adding each tap
 /// into the output row in memory cost a load and a store per tap and node); every node sums its
-/// taps in the same order whatever the thread count, layers running in parallel.
+/// taps in the same order whatever the thread count, layers shared among the threads one at a time
+/// (the mass is uneven along z: static halves of the layers left one thread waiting).
 template <int kCells, int kStride>
 void convolveNodeBlocks(const Lattice& L, const double* __restrict mass,
                         const double* __restrict in, double* __restrict out,
@@ -785,7 +788,7 @@ void convolveNodeBlocks(const Lattice& L, const double* __restrict mass,
         weight[count++] = taps.at(dx, dy, dz);
       }
   const int64_t x_lo = kCells, x_hi = L.nx - kCells;
-  parallelFor(threads, Schedule::kStatic, 0, L.nz - 2 * kCells, [&](int64_t layer) {
+  parallelFor(threads, Schedule::kDynamic, 1, L.nz - 2 * kCells, [&](int64_t layer) {
     const int64_t kz = layer + kCells;
     for (int64_t ky = kCells; ky < L.ny - kCells; ++ky) {
       const int64_t row_start = L.index(0, ky, kz);
