@@ -81,18 +81,29 @@ inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
   return c;
 }
 
-/// Eight lanes of Real: one AVX-512 register of doubles or one AVX2 register of floats.
+/// The vectors of double: one register of the build's widest, 8 lanes with AVX-512 and 4
+/// without. An 8-double vector on AVX2 went through the stack at every use (GCC spilled the
+/// accumulators): the node sums' pass cost 2.6x the gathers' at 5,000 strands, where with
+/// AVX-512 it costs 0.64x, and the double gathers 2.2x their AVX-512 time.
+#if defined(__AVX512F__)
+constexpr int kDoubleLanes = 8;
+#else
+constexpr int kDoubleLanes = 4;
+#endif
+
+/// A register of Real for the gathers: 8 floats (one AVX2 register) or kDoubleLanes doubles.
 template <typename Real>
 struct Lanes;
 template <>
 struct Lanes<double> {
-  typedef double type __attribute__((vector_size(64)));
+  typedef double type __attribute__((vector_size(8 * kDoubleLanes)));
 };
 template <>
 struct Lanes<float> {
   typedef float type __attribute__((vector_size(32)));
 };
-constexpr int kLanes = 8;
+template <typename Real>
+constexpr int kLanesOf = sizeof(typename Lanes<Real>::type) / sizeof(Real);
 
 template <typename V, typename Real>
 inline V loadLanes(const Real* p) {
@@ -143,21 +154,16 @@ double pairwiseSum(typename DoubleLanes<N>::type v) {
   }
 }
 
-/// The node convolutions' and the node sums' vectors of double: one register of the build's
-/// widest, 8 lanes with AVX-512 and 4 without. An 8-double vector on AVX2 went through the stack
-/// at every tap (GCC spilled the accumulators): the node sums' pass cost 2.6x the gathers' at
-/// 5,000 strands, where with AVX-512 it costs 0.64x.
-#if defined(__AVX512F__)
-constexpr int kNodeDoubleLanes = 8;
-#else
-constexpr int kNodeDoubleLanes = 4;
-#endif
+/// The node convolutions' and the node sums' vectors of double (kDoubleLanes).
+constexpr int kNodeDoubleLanes = kDoubleLanes;
 typedef DoubleLanes<kNodeDoubleLanes>::type NodeDoubles;
 
-/// Sum of the 8 lanes, in double, pairwise (a sequential sum cost as much as several rows).
+/// Sum of a register's lanes, in double, pairwise (a sequential sum cost as much as several
+/// rows).
 template <typename V>
 inline double laneSum(const V& v) {
-  return pairwiseSum<kLanes>(__builtin_convertvector(v, typename DoubleLanes<kLanes>::type));
+  constexpr int kN = sizeof(V) / sizeof(v[0]);
+  return pairwiseSum<kN>(__builtin_convertvector(v, typename DoubleLanes<kN>::type));
 }
 
 /// max(q, 0) lane by lane, as q > 0 ? q : 0 (0 for NaN and for -0 alike): one instruction on
@@ -194,6 +200,7 @@ inline T nodeKernel(T q, S ka, S kb) {
 template <int kCells, typename Real>
 struct RowWindow {
   typedef typename Lanes<Real>::type V;
+  static constexpr int kLanes = kLanesOf<Real>;
   static constexpr int kWidth = 2 * kCells;
   static constexpr int kChunks = (kWidth + kLanes - 1) / kLanes;
   /// One register of floats holds a row (AVX2 builds at 3 and 4 nodes per radius): the offsets
@@ -426,7 +433,7 @@ WetSums gatherWet(const Lattice& L, const WetNodes<Real>& g, const Vec3& r, doub
   V aw[kChunks] = {}, as[kChunks] = {}, ax[kChunks] = {}, ay[kChunks] = {}, az[kChunks] = {};
   win.forEachRow(L, h2d, [&](int64_t first, int a, int b) {
     for (int c = 0; c < kChunks; ++c) {
-      const int64_t k = first + c * kLanes;
+      const int64_t k = first + c * Window::kLanes;
       const V q = positivePart((reach[c] - win.dz2[a]) - win.dy2[b]);
       const V w = nodeKernel(q, ka, kb);
       aw[c] += w * loadLanes<V>(g.volume + k);

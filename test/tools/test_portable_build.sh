@@ -106,19 +106,22 @@ check "native and portable positions within 2 um at every frame (float lanes, fi
 cat "$out/compare.txt"
 
 # The display positions of the lattice cohesion, fully wet, 100 strands: the gathers at 2, 3 and
-# 4 nodes per radius, then the sums convolved at the nodes (grid_wet_sums "nodes", 4 nodes per
-# radius), which an AVX2 build convolves and interpolates in vectors of 4 doubles and an AVX-512
-# one in vectors of 8 (NodeDoubles), their own strands' pairs in 8 float lanes (16 in a native
-# build for a CPU with full-width AVX-512). The same 2 um.
-for lattice in 2 3 4 4-nodes; do
-  cells=${lattice%-nodes}
+# 4 nodes per radius; the gathers in double at 3 (grid_single_precision false); the sums
+# convolved at the nodes (grid_wet_sums "nodes", 4 nodes per radius), whose own strands' pairs
+# run in 8 float lanes (16 in a native build for a CPU with full-width AVX-512). Vectors of double
+# hold 4 lanes in an AVX2 build, 8 with AVX-512 (kDoubleLanes). The same 2 um.
+for lattice in 2 3 4 3-double 4-nodes; do
+  cells=${lattice%-*}
   wet=(--strands 100 --particles 32 --saturation 1,1 --motion nod:freq_hz=1.5,amplitude_rad=0.35
        --seconds 0.4 --integrator theta --substep 0.001 --hair-stride 1
        --set solver.cohesion.grid_cells_per_radius=$cells)
   ran="\"cohesion\": \"grid$cells\""
-  if [ "$lattice" != "$cells" ]; then
+  if [ "$lattice" = "$cells-nodes" ]; then
     wet+=(--set solver.cohesion.grid_wet_sums=nodes)
     ran="\"cohesion_wet_sums\": \"nodes\""
+  elif [ "$lattice" = "$cells-double" ]; then
+    wet+=(--set solver.cohesion.grid_single_precision=false)
+    ran="\"cohesion_float_lanes\": 0,"
   fi
   for b in native portable; do
     run=${b}_run
