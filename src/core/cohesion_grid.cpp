@@ -91,7 +91,8 @@ constexpr int kDoubleLanes = 8;
 constexpr int kDoubleLanes = 4;
 #endif
 
-/// A register of Real for the gathers: 8 floats (one AVX2 register) or kDoubleLanes doubles.
+/// A register of Real: 8 floats (one AVX2 register) for the float gathers, or kDoubleLanes
+/// doubles for the double gathers, the node convolutions and the node sums' interpolation.
 template <typename Real>
 struct Lanes;
 template <>
@@ -153,10 +154,6 @@ double pairwiseSum(typename DoubleLanes<N>::type v) {
                               highHalf<N>(v, std::make_index_sequence<N / 2>()));
   }
 }
-
-/// The node convolutions' and the node sums' vectors of double (kDoubleLanes).
-constexpr int kNodeDoubleLanes = kDoubleLanes;
-typedef DoubleLanes<kNodeDoubleLanes>::type NodeDoubles;
 
 /// Sum of a register's lanes, in double, pairwise (a sequential sum cost as much as several
 /// rows).
@@ -792,8 +789,8 @@ template <int kCells, int kStride>
 void convolveNodeBlocks(const Lattice& L, const double* __restrict mass,
                         const double* __restrict in, double* __restrict out,
                         const NodeTaps<kCells>& taps, int threads) {
-  typedef NodeDoubles D;
-  constexpr int kBlock = 8, kVectors = kBlock * kStride / kNodeDoubleLanes;
+  typedef Lanes<double>::type D;
+  constexpr int kBlock = 8, kVectors = kBlock * kStride / kDoubleLanes;
   constexpr int kW = NodeTaps<kCells>::kW;
   int64_t offset[kW * kW * kW];  // the taps within h, as node offsets, and their weights
   double weight[kW * kW * kW];
@@ -816,7 +813,7 @@ void convolveNodeBlocks(const Lattice& L, const double* __restrict mass,
         D sum[kVectors] = {};
         for (int t = 0; t < count; ++t)
           for (int v = 0; v < kVectors; ++v)
-            sum[v] += weight[t] * loadLanes<D>(from + offset[t] + kNodeDoubleLanes * v);
+            sum[v] += weight[t] * loadLanes<D>(from + offset[t] + kDoubleLanes * v);
         std::memcpy(out + kStride * (row_start + x), sum, sizeof sum);
       }
     }
@@ -1062,11 +1059,11 @@ struct ConvolvedWetNodes {
 
 /// The sums of eq. (10) at a particle from its cell's 8 convolved nodes (trilinear), as WetSums:
 /// a cell's two nodes along x hold 8 consecutive wet sums, one vector with AVX-512 and two
-/// without (NodeDoubles); the volume as the densities take theirs (interpolateNodes).
+/// without (kDoubleLanes); the volume as the densities take theirs (interpolateNodes).
 WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes& c,
                                       const CellPosition& cell) {
-  typedef NodeDoubles D;
-  constexpr int kPieces = 8 / kNodeDoubleLanes;
+  typedef Lanes<double>::type D;
+  constexpr int kPieces = 8 / kDoubleLanes;
   const int64_t n = L.index(static_cast<int64_t>(cell.k[0]), static_cast<int64_t>(cell.k[1]),
                             static_cast<int64_t>(cell.k[2]));
   const int64_t up = L.nx * L.ny;
@@ -1074,12 +1071,10 @@ WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes&
   const int64_t corner[4] = {n, n + L.nx, n + up, n + up + L.nx};
   const double weight[4] = {(1.0 - ty) * (1.0 - tz), ty * (1.0 - tz), (1.0 - ty) * tz, ty * tz};
   D along_x[kPieces], wet[kPieces] = {};  // entry e of the 8: the low node's below 4
-  for (int e = 0; e < 8; ++e)
-    along_x[e / kNodeDoubleLanes][e % kNodeDoubleLanes] = e < 4 ? 1.0 - tx : tx;
+  for (int e = 0; e < 8; ++e) along_x[e / kDoubleLanes][e % kDoubleLanes] = e < 4 ? 1.0 - tx : tx;
   for (int k = 0; k < 4; ++k)
     for (int h = 0; h < kPieces; ++h)
-      wet[h] +=
-          (weight[k] * along_x[h]) * loadLanes<D>(c.wet + 4 * corner[k] + kNodeDoubleLanes * h);
+      wet[h] += (weight[k] * along_x[h]) * loadLanes<D>(c.wet + 4 * corner[k] + kDoubleLanes * h);
   double sum[8];
   std::memcpy(sum, wet, sizeof sum);
   return wetSums(L, cell.r, interpolateNodes(L, cell, c.volume), sum[0] + sum[4],
