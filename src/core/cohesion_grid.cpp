@@ -1320,10 +1320,9 @@ CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& c)
   if (c.grid_wet_sums == "nodes") {
     lattice.node_sums = true;
   } else if (c.grid_wet_sums == "auto" && c.grid_cells_per_radius == 3 &&
-             model.cohesion_rest_density_cells == c.grid_cells_per_radius + 1 &&
+             model.cohesion_rest_density_cells == c.grid_cells_per_radius &&
              model.cohesion_rest_particles_per_cell >= kNodeSumsParticlesPerCell) {
     lattice.node_sums = true;
-    lattice.cells_per_radius = c.grid_cells_per_radius + 1;
   }
   return lattice;
 }

@@ -303,7 +303,7 @@ void buildModelUnchecked(const Groom& groom, double rho, const HeadShape& head,
   // the world gravity.
   if (config.sag_free) makeSagFree(config, config.gravity_m_s2, &m);
   if (config.cohesion.evaluation == "grid" && config.cohesion.grid_wet_sums == "auto") {
-    m.cohesion_rest_density_cells = config.cohesion.grid_cells_per_radius + 1;
+    m.cohesion_rest_density_cells = config.cohesion.grid_cells_per_radius;
     m.cohesion_rest_particles_per_cell =
         restParticlesPerCell(m, config.cohesion.radius_m, m.cohesion_rest_density_cells);
   }

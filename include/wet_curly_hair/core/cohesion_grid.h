@@ -61,21 +61,23 @@ struct CohesionLattice {
 };
 
 /// grid_wet_sums "auto" takes the node sums where the hair at rest holds at least this many
-/// particles per occupied cell of their lattice: their convolution costs per node with mass, the
-/// gathers per particle. Measured, the fully wet bench scene on a fifth-generation AMD EPYC
-/// (docs/physics.md §7.3): the two cost the same at 2,000 strands, 4.8 particles per cell at 4
-/// nodes per radius; 1,000 strands hold 2.9, 10,000 hold 19.6.
+/// particles per occupied cell of the lattice: their convolution costs per node with mass, the
+/// gathers per particle. Measured, the fully wet bench scene at 3 nodes per radius on a
+/// fifth-generation AMD EPYC (docs/physics.md §7.3), node sums against gathers: 2.7x the cost at
+/// 300 strands (2.4 particles per cell), 0.87x at 1,000 (5.6), 0.48x at 5,000 (22.7); the
+/// crossover is near 5. 10,000 strands hold 42.7.
 constexpr double kNodeSumsParticlesPerCell = 5.0;
 
 /// The particles per occupied lattice cell of the model at rest (head frame), cells of h /
 /// cells_per_radius: what the node sums' cost is measured against (kNodeSumsParticlesPerCell).
 double restParticlesPerCell(const HairModel& model, double h, int cells_per_radius);
 
-/// CohesionConfig::grid_wet_sums resolved for the model: "particles" and "nodes" at
-/// grid_cells_per_radius as given; "auto" at 3 nodes per radius the node sums at 4, closer to
-/// exact than the gathers at 3 (docs/physics.md §7.3), when the hair at rest is dense enough
-/// (HairModel::cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell: measured for that
-/// pair), else the gathers; at other lattices the gathers. The node volumes keep the gathers.
+/// CohesionConfig::grid_wet_sums resolved for the model: "particles" and "nodes" as given;
+/// "auto" at 3 nodes per radius the node sums when the hair at rest is dense enough
+/// (HairModel::cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell: measured at that
+/// lattice), else the gathers; at other lattices the gathers. The node volumes keep the gathers.
+/// Both stay within the bench's budgets against exact at every strand count measured
+/// (docs/bench/defaults.txt).
 CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& config);
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its

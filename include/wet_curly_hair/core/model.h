@@ -113,10 +113,9 @@ struct HairModel {
   /// Lattice nodes makeState allocates for the "grid" cohesion evaluation: enough for the hair's
   /// largest possible extent (cohesionGridNodeBound); 0 when the evaluation is "exact".
   size_t cohesion_grid_nodes = 0;
-  /// The particles per occupied cell at rest of the lattice the node sums would run
-  /// (restParticlesPerCell at cohesion_rest_density_cells nodes per radius: one more than the
-  /// build's grid_cells_per_radius), for grid_wet_sums "auto" (cohesionLattice); 0 when not
-  /// computed.
+  /// The particles per occupied cell at rest of the cohesion lattice (restParticlesPerCell at
+  /// cohesion_rest_density_cells nodes per radius: the build's grid_cells_per_radius), for
+  /// grid_wet_sums "auto" (cohesionLattice); 0 when not computed.
   double cohesion_rest_particles_per_cell = 0.0;
   int cohesion_rest_density_cells = 0;
 
