@@ -63,9 +63,9 @@ struct CohesionLattice {
 /// grid_wet_sums "auto" takes the node sums where the hair at rest holds at least this many
 /// particles per occupied cell of the lattice: their convolution costs per node with mass, the
 /// gathers per particle. Measured, the fully wet bench scene at 3 nodes per radius on a
-/// fifth-generation AMD EPYC (docs/physics.md §7.3), node sums against gathers: 2.7x the cost at
-/// 300 strands (2.4 particles per cell), 0.87x at 1,000 (5.6), 0.48x at 5,000 (22.7); the
-/// crossover is near 5. 10,000 strands hold 42.7.
+/// fifth-generation AMD EPYC (docs/physics.md §7.3), node sums against gathers: 3.1x the cost at
+/// 300 strands (2.4 particles per cell), 0.94x at 1,000 (5.6), 0.45x at 5,000 (22.7). 10,000
+/// strands hold 42.7.
 constexpr double kNodeSumsParticlesPerCell = 5.0;
 
 /// The particles per occupied lattice cell of the model at rest (head frame), cells of h /

@@ -210,10 +210,10 @@ struct CohesionConfig {
   /// cell, as the densities are; the own strand is then subtracted as exact pairs where the other
   /// strands outweigh it, else through the same lattice functional (docs/physics.md §7.3). Two
   /// interpolations: at the same lattice their error is larger, at one node per radius more
-  /// smaller. "auto", at 3 nodes per radius: the node sums at 4 where the hair at rest is dense
+  /// smaller. "auto", at 3 nodes per radius: the node sums where the hair at rest is dense
   /// enough for their convolution to cost less than the gathers (cohesionLattice), else the
-  /// gathers at 3; at other lattices the gathers. Particle volumes only: with grid_node_volumes
-  /// the gathers run.
+  /// gathers; at other lattices the gathers. Particle volumes only: with grid_node_volumes the
+  /// gathers run.
   std::string grid_wet_sums = "auto";
   /// Where eq. (10)'s sums are evaluated when the groom has followers (followers.h): "all"
   /// output particles, or the "guides" only, each follower then taking its guides' display
