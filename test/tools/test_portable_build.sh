@@ -107,9 +107,9 @@ cat "$out/compare.txt"
 
 # The display positions of the lattice cohesion, fully wet, 100 strands: the gathers at 2, 3 and
 # 4 nodes per radius; the gathers in double at 3 (grid_single_precision false); the sums
-# convolved at the nodes (grid_wet_sums "nodes", 3 and 4 nodes per radius), whose own strands' pairs
-# run in 8 float lanes (16 in a native build for a CPU with full-width AVX-512). Vectors of double
-# hold 4 lanes in an AVX2 build, 8 with AVX-512 (kDoubleLanes). The same 2 um.
+# convolved at the nodes (grid_wet_sums "nodes", 3 and 4 nodes per radius), whose own strands'
+# pairs run in 8 float lanes (16 in a native build for a CPU with full-width AVX-512). Vectors of
+# double hold 4 lanes in an AVX2 build, 8 with AVX-512 (kDoubleLanes). The same 2 um.
 for lattice in 2 3 4 3-double 3-nodes 4-nodes; do
   cells=${lattice%-*}
   wet=(--strands 100 --particles 32 --saturation 1,1 --motion nod:freq_hz=1.5,amplitude_rad=0.35
