@@ -76,8 +76,8 @@ double restParticlesPerCell(const HairModel& model, double h, int cells_per_radi
 /// "auto" at 3 nodes per radius the node sums when the hair at rest is dense enough
 /// (HairModel::cohesion_rest_particles_per_cell, kNodeSumsParticlesPerCell: measured at that
 /// lattice), else the gathers; at other lattices the gathers. The node volumes keep the gathers.
-/// Both stay within the bench's budgets against exact at every strand count measured
-/// (docs/bench/defaults.txt).
+/// What "auto" runs stays within the bench's budgets against exact at every strand count
+/// measured (docs/bench/defaults.txt).
 CohesionLattice cohesionLattice(const HairModel& model, const CohesionConfig& config);
 
 /// Lattice nodes that cover any bounding box the hair can have: each particle stays within its
