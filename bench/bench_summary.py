@@ -386,7 +386,8 @@ def write_defaults(d, common):
     with open(os.path.join(d, "defaults.txt"), "w") as f:
         f.write("# Written by bench/bench_summary.py from work_precision.csv: the cheapest setting\n"
                 "# (mean wall s per simulated s over the scenes) meeting 1 %% RMS of the strand\n"
-                "# length over the whole run on every benchmark scene (worst there %.2g %%,\n"
+                "# length over the whole run and stable (finite, no repair, strain before the\n"
+                "# limit within twice it) on every benchmark scene (worst there %.2g %%,\n"
                 "# mean cost %s s/s; costs within %g x of the cheapest are a tie, won by the\n"
                 "# smaller worst error). test_config holds SolverConfig's defaults to it.\n"
                 % (100 * worst, fmt(cost), COST_TIE))

@@ -240,7 +240,10 @@ def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeo
     scene_path = os.path.join("config", "hard", scene + ".yaml")
     extra = runner_args(os.path.join(PKG, scene_path))
     if contact:
-        extra = extra + ["--hair-contact", "on"]
+        # The substep under test, not the contact's longest (solver.hair_contact.max_substep_s,
+        # which would cut every longer step to 5e-4 s).
+        extra = extra + ["--hair-contact", "on", "--set",
+                         "solver.hair_contact.max_substep_s=%r" % step_s]
     frame = max(FRAME_S, step_s)
     tag = "%s__%s__%s" % (scene, integrator, step_label.replace("/", "_"))
     json_path = os.path.join(out_dir, tag + ".json")

@@ -179,7 +179,8 @@ bool HairContactConfig::validate(const std::string& p, std::string* why) const {
          finiteInRange(p + "friction", friction, 0.0, 10.0, why) &&
          finiteInRange(p + "ramp_time_s", ramp_time_s, 0.0, 10.0, why) &&
          finiteInRange(p + "taper_time_s", taper_time_s, 0.0, 10.0, why) &&
-         finiteInRange(p + "skin_m", skin_m, 1e-6, 0.1, why);
+         finiteInRange(p + "skin_m", skin_m, 1e-6, 0.1, why) &&
+         finiteInRange(p + "max_substep_s", max_substep_s, 1e-6, 1.0, why);
 }
 
 bool SolverConfig::validate(const std::string& p, std::string* why) const {

@@ -20,7 +20,10 @@ namespace wet_curly_hair {
 
 int substepCount(const SolverConfig& config, double dt_s) {
   if (!(dt_s > 0.0)) return 0;
-  return std::max(1, static_cast<int>(std::ceil(dt_s / config.integrator.substep_s - 1e-9)));
+  const double longest = config.hair_contact.enabled ? std::min(config.integrator.substep_s,
+                                                                config.hair_contact.max_substep_s)
+                                                     : config.integrator.substep_s;
+  return std::max(1, static_cast<int>(std::ceil(dt_s / longest - 1e-9)));
 }
 
 int dampingPassCount(const HairModel& model, const SolverConfig& config, double h) {

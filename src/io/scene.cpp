@@ -137,6 +137,8 @@ void addHairContactParameters(HairContactConfig* hc_config, std::vector<ParamRef
   d("solver.hair_contact.taper_time_s", &hc.taper_time_s, "stiffness taper after release, s",
     false);
   d("solver.hair_contact.skin_m", &hc.skin_m, "Verlet list skin, m", false);
+  d("solver.hair_contact.max_substep_s", &hc.max_substep_s,
+    "longest substep while contact is on (the integrator's may be shorter), s", false);
 }
 
 /// The groom and groom_file rows of parameterTable.

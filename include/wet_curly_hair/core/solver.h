@@ -96,9 +96,10 @@ struct StepStats {
   void accumulate(const StepStats& o);
 };
 
-/// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s.
-/// For the explicit integrator, buildModel and updateSpringConstants refuse a substep_s past the
-/// groom's stability bound (checkExplicitSubstep, model.h): it is never shortened here.
+/// Number of equal substeps a step of dt_s is split into so that none exceeds config's substep_s
+/// (nor, with hair contact on, hair_contact.max_substep_s). For the explicit integrator, buildModel
+/// and updateSpringConstants refuse a substep_s past the groom's stability bound
+/// (checkExplicitSubstep, model.h): it is never shortened here.
 int substepCount(const SolverConfig& config, double dt_s);
 
 /// Damping passes used for substep h: config's minimum, raised until tau = h / n satisfies the
