@@ -55,8 +55,9 @@ inline double nodeCoordinate(const Lattice& L, const Vec3& p, int axis) {
 /// The lowest node of a cell along one axis, and the fraction there, from a coordinate r
 /// relative to the lattice origin. The one place the lattice's cells are formed: cellPosition for
 /// every pass over all particles, and the gathered particles' double own-strand shares and node
-/// volumes from their stored coordinates (CohesionNodeGrid::rx..), which are cellPosition's r to
-/// the bit, so every pass agrees with the splat on every cell without storing them.
+/// volumes from their stored coordinates (CohesionNodeGrid::rx.., with the gathers) or from
+/// cellPosition's r itself (with the node sums): the stored ones are cellPosition's r to the
+/// bit, so every pass agrees with the splat on every cell without storing the cells.
 struct CellAxis {
   double node, fraction;
 };
@@ -79,6 +80,17 @@ inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
     c.t[a] = axis.fraction;
   }
   return c;
+}
+
+/// Particle j's cell and trilinear fractions in float (CohesionNodeGrid::kx_f..), for the float
+/// own-strand shares.
+inline void storeFloatCell(const CellPosition& cell, int j, CohesionNodeGrid* g) {
+  g->kx_f[j] = static_cast<float>(cell.k[0]);
+  g->ky_f[j] = static_cast<float>(cell.k[1]);
+  g->kz_f[j] = static_cast<float>(cell.k[2]);
+  g->tx_f[j] = static_cast<float>(cell.t[0]);
+  g->ty_f[j] = static_cast<float>(cell.t[1]);
+  g->tz_f[j] = static_cast<float>(cell.t[2]);
 }
 
 /// The vectors of double: one register of the build's widest, 8 lanes with AVX-512 and 4
@@ -921,9 +933,10 @@ inline double densityNorm(double h) { return 315.0 / (64.0 * M_PI * std::pow(h, 
 /// The splatted mass's halves summed (scalar), the density at the nodes convolved with the node
 /// kernel (ka, kb) into wet_volume (unnormalised: densityNorm), and the density and volume V = m
 /// / rho of particles [0, count) from their cells' nodes.
-template <int kCells>
+template <int kCells, typename EachParticle>
 void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, int count,
-                       double ka, double kb, HairState* state, int threads) {
+                       double ka, double kb, HairState* state, int threads,
+                       EachParticle each_particle) {
   CohesionNodeGrid& g = state->cohesion_grid;
   const Vec3List& p = state->position;
   addInto(&g.scalar, g.scalar_b, nodes, threads);
@@ -932,8 +945,10 @@ void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, 
   convolveNodeBlocks<kCells, 1>(L, g.scalar.data(), g.scalar.data(), node_density,
                                 NodeTaps<kCells>(L, ka, kb), threads);
   parallelFor(threads, Schedule::kStatic, 0, count, [&](int i) {
-    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
+    const CellPosition cell = cellPosition(L, p[i]);
+    state->density[i] = norm * interpolateNodes(L, cell, node_density);
     g.volume[i] = model.mass_kg[i] / state->density[i];
+    each_particle(i, cell);
   });
 }
 
@@ -958,18 +973,23 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
     double* const nodes_of_half = mass_nodes[half];
     return [m, nodes_of_half](int64_t node, double t) { nodes_of_half[node] += t * m; };
   });
-  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads);
+  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
+  // its own: with gather_at "guides" the followers' would be written and never read), and with
+  // the node sums their cells (storeFloatCell), in the pass that has each particle's cell.
+  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads,
+                            [&](int j, const CellPosition& cell) {
+                              if (j >= gathered) return;
+                              const double wet_share = g.volume[j] * state->saturation[j];
+                              if (!node_sums)
+                                g.wet_share[j] = wet_share;  // latticeOwnShare forms its own
+                              if (!single) return;
+                              g.volume_f[j] = static_cast<float>(g.volume[j]);
+                              g.wet_share_f[j] = static_cast<float>(wet_share);
+                              if (node_sums) storeFloatCell(cell, j, &g);
+                            });
 
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
-  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
-  // its own: with gather_at "guides" the followers' would be written and never read).
-  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
-    g.wet_share[j] = g.volume[j] * state->saturation[j];
-    if (!single) return;
-    g.volume_f[j] = static_cast<float>(g.volume[j]);
-    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
-  });
   splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
     return wetSplat(&g, L, cell, half, g.volume[j], g.volume[j] * state->saturation[j]);
   });
@@ -995,7 +1015,8 @@ NodeVolumes splatWithNodeVolumes(const HairModel& model, const Lattice& L, int64
     const double m = model.mass_kg[j];
     return wetSplat(&g, L, cell, half, m, m * state->saturation[j]);
   });
-  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads);
+  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads,
+                            [](int, const CellPosition&) {});
   parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
     g.wet_share[i] = state->saturation[i];  // the corner factors carry m / rho_n
     if (!single) return;
@@ -1087,11 +1108,12 @@ WCH_INLINE WetSums interpolateWetSums(const Lattice& L, const ConvolvedWetNodes&
 /// takes the cell difference plus -1, 0 or 1, so the 64 corner pairs fold into 27 offsets.
 template <int kCells>
 WetSums latticeOwnShare(const Lattice& L, const NodeTaps<kCells>& taps, const CohesionNodeGrid& g,
-                        int begin, int end, int i) {
-  const CellAxis ci[3] = {cellAxis(L, g.rx[i]), cellAxis(L, g.ry[i]), cellAxis(L, g.rz[i])};
+                        const Vec3List& p, const double* saturation, int begin, int end, int i) {
+  const Vec3 ri = cellPosition(L, p[i]).r;
+  const CellAxis ci[3] = {cellAxis(L, ri.x()), cellAxis(L, ri.y()), cellAxis(L, ri.z())};
   WetSums share;
   for (int j = begin; j < end; ++j) {
-    const double rj[3] = {g.rx[j], g.ry[j], g.rz[j]};
+    const Vec3 rj = cellPosition(L, p[j]).r;
     int delta[3];
     double fold[3][3];  // per axis, the weight of c - d = delta - 1, delta, delta + 1
     for (int a = 0; a < 3; ++a) {
@@ -1109,8 +1131,7 @@ WetSums latticeOwnShare(const Lattice& L, const NodeTaps<kCells>& taps, const Co
           w += fold[0][ex] * fold[1][ey] * fold[2][ez] *
                taps.at(delta[0] + ex - 1, delta[1] + ey - 1, delta[2] + ez - 1);
     share.weight += g.volume[j] * w;
-    share.pull +=
-        (g.wet_share[j] * w) * Vec3(g.rx[j] - g.rx[i], g.ry[j] - g.ry[i], g.rz[j] - g.rz[i]);
+    share.pull += (g.volume[j] * saturation[j] * w) * Vec3(rj - ri);
   }
   return share;
 }
@@ -1134,30 +1155,36 @@ int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg,
   convolveNodeBlocks<kCells, 4>(L, g.scalar.data(), g.wet_splat.data(), g.wet_splat_b.data(), taps,
                                 threads);
   const ConvolvedWetNodes convolved{g.qx.data(), g.wet_splat_b.data()};
-  parallelFor(threads, Schedule::kDynamic, 16, gathered_strands, [&](int s) {
+  const double c6 = std::pow(L.c, 6);
+  const detail::DisplayWrite write = detail::displayWrite(cfg, state);
+  // A strand at a time: its own shares, then its particles' sums, while the shares are in the
+  // cache (as two passes over every particle, the shares went to memory and came back).
+  return static_cast<int>(parallelSum(threads, 16, gathered_strands, [&](int s) -> int {
     const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
     bool wet_strand = at_guides;
     for (int i = begin; i < end && !wet_strand; ++i) wet_strand = state->saturation[i] > 0.0;
-    if (wet_strand) exactOwnSharesSingle(L, &g, begin, end);
-  });
-  const double c6 = std::pow(L.c, 6);
-  const detail::DisplayWrite write = detail::displayWrite(cfg, state);
-  return static_cast<int>(parallelSum(threads, 256, gathered, [&](int i) -> int {
-    const bool wet_particle = state->saturation[i] > 0.0;
-    if (!wet_particle && !at_guides) {  // dry particles keep p^w = p
-      write.unmoved(i, p[i]);
+    if (!wet_strand) {  // dry particles keep p^w = p
+      for (int i = begin; i < end; ++i) write.unmoved(i, p[i]);
       return 0;
     }
-    const WetSums all = interpolateWetSums(L, convolved, cellPosition(L, p[i]));
-    const int s = static_cast<int>(state->grid.strand_of[i]);
-    const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
-    WetSums own;
-    own.weight = c6 * double(g.own_weight_f[i]);
-    own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
-    if (!(all.weight - own.weight > kExactOwnRatio * own.weight))
-      own = latticeOwnShare<kCells>(L, taps, g, begin, end, i);
-    return writeClumpOffset(cfg, all, own, g.volume[i] * poly6Shape(0.0, h2), wet_particle,
-                            at_guides, i, p[i], write, state);
+    exactOwnSharesSingle(L, &g, begin, end);
+    int moved = 0;
+    for (int i = begin; i < end; ++i) {
+      const bool wet_particle = state->saturation[i] > 0.0;
+      if (!wet_particle && !at_guides) {
+        write.unmoved(i, p[i]);
+        continue;
+      }
+      const WetSums all = interpolateWetSums(L, convolved, cellPosition(L, p[i]));
+      WetSums own;
+      own.weight = c6 * double(g.own_weight_f[i]);
+      own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
+      if (!(all.weight - own.weight > kExactOwnRatio * own.weight))
+        own = latticeOwnShare<kCells>(L, taps, g, p, state->saturation.data(), begin, end, i);
+      moved += writeClumpOffset(cfg, all, own, g.volume[i] * poly6Shape(0.0, h2), wet_particle,
+                                at_guides, i, p[i], write, state);
+    }
+    return moved;
   }));
 }
 
@@ -1178,19 +1205,17 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // The gathered strands' particles' positions on the lattice, stored for their gathers and
   // own-strand shares, with their cells and trilinear fractions in float for the float shares
   // (the passes over every particle compute them from the positions: cellPosition).
-  parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
-    const CellPosition cell = cellPosition(L, p[j]);
-    g.rx[j] = cell.r.x();
-    g.ry[j] = cell.r.y();
-    g.rz[j] = cell.r.z();
-    if (!single && !node_sums) return;  // read by the float own-strand shares only
-    g.kx_f[j] = static_cast<float>(cell.k[0]);
-    g.ky_f[j] = static_cast<float>(cell.k[1]);
-    g.kz_f[j] = static_cast<float>(cell.k[2]);
-    g.tx_f[j] = static_cast<float>(cell.t[0]);
-    g.ty_f[j] = static_cast<float>(cell.t[1]);
-    g.tz_f[j] = static_cast<float>(cell.t[2]);
-  });
+  // With the node sums the float cells are stored by the densities' pass (splatWithParticleVolumes)
+  // and the stored positions are not read (latticeOwnShare forms its own).
+  if (!node_sums) {
+    parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
+      const CellPosition cell = cellPosition(L, p[j]);
+      g.rx[j] = cell.r.x();
+      g.ry[j] = cell.r.y();
+      g.rz[j] = cell.r.z();
+      if (single) storeFloatCell(cell, j, &g);  // read by the float own-strand shares only
+    });
+  }
 
   const NodeVolumes volumes =
       cfg.grid_node_volumes

@@ -138,12 +138,14 @@ struct CohesionNodeGrid {
   /// particles only).
   std::vector<double> volume;
   /// V sigma (the gathered strands' particles only; with grid_node_volumes sigma, the corners
-  /// carrying m / rho of their nodes).
+  /// carrying m / rho of their nodes). Not written with the sums convolved at the nodes, whose
+  /// rare double own shares form it from volume and the saturation.
   std::vector<double> wet_share;
   // The gathered strands' particles only (the passes over every particle compute these from
   // the positions):
   /// Position relative to the lattice origin, m: the cell and its fractions follow from it by
-  /// the operations that formed them (the cohesion lattice's cellAxis).
+  /// the operations that formed them (the cohesion lattice's cellAxis). Written for the gathers
+  /// only: the sums convolved at the nodes form it from the position where they need it.
   std::vector<double> rx, ry, rz;
   /// Single-precision lowest node of the particle's cell (kx_f..) and trilinear fractions in it
   /// (tx_f..), and copies of volume and wet_share, read by the float own-strand sums (in lattice
