@@ -71,7 +71,7 @@ bool oneOf(const std::string& name, const std::string& value,
 
 bool StretchConfig::validate(const std::string& p, std::string* why) const {
   return finiteInRange(p + "axial_stiffness_n", axial_stiffness_n, 1e-9, 1e9, why) &&
-         oneOf(p + "limit_velocity", limit_velocity, {"displacement", "inelastic"}, why) &&
+         oneOf(p + "limit_velocity", limit_velocity, {"auto", "displacement", "inelastic"}, why) &&
          finiteInRange(p + "damping_n_s", damping_n_s, 0.0, 1e6, why) &&
          finiteInRange(p + "strain_limit", strain_limit, 1e-4, 1.0, why) &&
          finiteInRange(p + "strain_rate_limit_per_substep", strain_rate_limit_per_substep, 1e-5,

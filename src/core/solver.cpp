@@ -188,7 +188,7 @@ SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h
   plan.theta = integratorTheta(config.integrator);
   plan.implicit = plan.theta > 0.0;
   plan.curl_spring = config.curl.mode == "spring";
-  plan.inelastic_limit = config.stretch.limit_velocity == "inelastic";
+  plan.inelastic_limit = config.inelasticStrainLimit();
   plan.bend_frame_gradient = config.bend.frame_gradient && config.bend.stiffness_n_m2 > 0.0;
   plan.core_filter_gradient = config.core.filter_gradient;
   plan.force_cohesion = config.cohesion.mode == "lin" || config.cohesion.mode == "kim";

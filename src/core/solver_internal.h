@@ -49,7 +49,7 @@ struct SolverPlan {
   double theta = 0.0;                 ///< integratorTheta; 0 for the explicit method.
   bool implicit = false;              ///< theta > 0.
   bool curl_spring = true;            ///< CurlConfig::mode "spring" (else "literal").
-  bool inelastic_limit = false;       ///< StretchConfig::limit_velocity "inelastic".
+  bool inelastic_limit = false;       ///< SolverConfig::inelasticStrainLimit.
   bool bend_frame_gradient = false;   ///< BendConfig::frame_gradient, with bending on.
   bool core_filter_gradient = false;  ///< CoreSpringConfig::filter_gradient.
   bool force_cohesion = false;        ///< CohesionConfig::mode "lin" or "kim".

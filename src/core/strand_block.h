@@ -775,8 +775,9 @@ void limitStrainEdges(const S* rest, double strain_limit, bool inelastic, double
       // substep, as the displacement would be. Not an impulse shared by the pair: where the root
       // side moves fast along the edge the tip side takes its speed (strands started on top of
       // each other, pushed apart by hair contact at 2e-4 s: peak energy 1.49 J against 0.41 J
-      // with the displacement; docs/hair_contact.md). Shared by the pair, it pushed the edge
-      // before and the nod-and-shake stretched 20 % before the limit at 1e-3 s, against 9.2 %.
+      // with the displacement; docs/hair_contact.md), so "auto" takes the displacement while
+      // contact is on. Shared by the pair, it pushed the edge before and the nod-and-shake
+      // stretched 20 % before the limit at 1e-3 s, against 9.2 %.
       V3<S> edge = p[i + 1] - p[i];
       const S len2 = dot(edge, edge);
       edge = select(len2 > splat<S>(0.0), edge / vsqrt(len2), edge);

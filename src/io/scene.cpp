@@ -214,7 +214,9 @@ std::vector<ParamRef> parameterTable(SceneConfig* s) {
   d("solver.stretch.strain_rate_limit_per_substep", &c.stretch.strain_rate_limit_per_substep,
     "velocity clamp: largest strain change per substep", false);
   str("solver.stretch.limit_velocity", &c.stretch.limit_velocity,
-      "after a strain-limit projection: displacement (Selle) or inelastic", false);
+      "after a strain-limit projection: displacement (Selle), inelastic, or auto (inelastic; "
+      "displacement with hair contact)",
+      false);
   d("solver.bend.stiffness_n_m2", &c.bend.stiffness_n_m2,
     "B, bending stiffness, N m^2 (eq. 4: k_b = B / (L alpha_b^2))", false);
   d("solver.bend.damping_n_s", &c.bend.damping_n_s, "D_b, N s (eq. 4: c_b = D_b / L)", false);

@@ -1,6 +1,6 @@
 // README claims about the step, each held to what it says through the public API (step(),
 // StepStats, HairState, the configs): the curl rotation's time constant, stiffness relative to the
-// head, rotational head jumps and the inelastic strain-limit velocity.
+// head, rotational head jumps and the strain limit's velocity rules.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -158,11 +158,9 @@ double stretchEnergy(const HairModel& m, const SolverConfig& c, const HairState&
   return e;
 }
 
-// StretchConfig::limit_velocity "inelastic": the strain limit removes the edge's stretching
-// relative velocity only, so it never adds energy. Straight strands with only stretch springs
-// (no gravity, bending, core, curl or head) flung outward along themselves, root held: the energy
-// (kinetic + stretch) never grows while the limiter works.
-TEST(SolverClaims, InelasticStrainLimitNeverAddsEnergy) {
+/// Straight strands with only stretch springs (no gravity, bending, core, curl or head), flung
+/// outward along themselves from a held root, so that the strain limit acts.
+SolverConfig flungStrandsConfig() {
   SolverConfig c;
   c.gravity_m_s2 = Vec3::Zero();
   c.bend.stiffness_n_m2 = 0.0;
@@ -170,17 +168,34 @@ TEST(SolverClaims, InelasticStrainLimitNeverAddsEnergy) {
   c.curl.enabled = false;
   c.collision.head_enabled = false;
   c.cohesion.mode = "off";
-  c.stretch.limit_velocity = "inelastic";
+  return c;
+}
+
+GroomConfig straightGroom() {
   GroomConfig g = smallGroom(4);
   g.curl_radius_m = 0.0;
   g.jitter = 0.0;
-  const HairModel m = makeModel(g, c);
+  return g;
+}
+
+HairState flungState(const HairModel& m) {
   HairState s = makeState(m, Pose(), Twist());
   for (int st = 0; st < m.strandCount(); ++st) {
     const int b = m.strandBegin(st), n = m.strandSize(st);
     const Vec3 axis = (s.position[b + n - 1] - s.position[b]).normalized();
     for (int k = 1; k < n; ++k) s.velocity[b + k] = (4.0 * k / (n - 1)) * axis;
   }
+  return s;
+}
+
+// StretchConfig::limit_velocity "inelastic": the strain limit removes the edge's stretching
+// relative velocity, from the tip side only. With the root held and the strands flung along
+// themselves the energy (kinetic + stretch) never grows while the limiter works.
+TEST(SolverClaims, InelasticStrainLimitNeverAddsEnergy) {
+  SolverConfig c = flungStrandsConfig();
+  c.stretch.limit_velocity = "inelastic";
+  const HairModel m = makeModel(straightGroom(), c);
+  HairState s = flungState(m);
   double energy = stretchEnergy(m, c, s);
   uint64_t limited = 0;
   for (int f = 0; f < 30; ++f) {
@@ -192,6 +207,28 @@ TEST(SolverClaims, InelasticStrainLimitNeverAddsEnergy) {
     energy = now;
   }
   EXPECT_GT(limited, 0u);  // the limiter did act
+}
+
+// StretchConfig::limit_velocity "auto" (the default): the inelastic velocity without hair
+// contact, the displacement with it. The flung strands after 10 frames, to the bit; the two
+// rules part there (else the comparison would prove nothing).
+TEST(SolverClaims, AutoStrainLimitVelocityIsInelasticAloneAndDisplacementWithHairContact) {
+  EXPECT_EQ(SolverConfig().stretch.limit_velocity, "auto");
+  for (const bool contact : {false, true}) {
+    auto run = [&](const char* rule) {
+      SolverConfig c = flungStrandsConfig();
+      c.hair_contact.enabled = contact;
+      c.stretch.limit_velocity = rule;
+      const HairModel m = makeModel(straightGroom(), c);
+      HairState s = flungState(m);
+      for (int f = 0; f < 10; ++f) step(m, c, StepInputs{}, kFrame, &s, nullptr);
+      return s.position;
+    };
+    const Vec3List automatic = run("auto"), inelastic = run("inelastic"),
+                   displacement = run("displacement");
+    ASSERT_NE(inelastic, displacement) << "contact " << contact;
+    EXPECT_EQ(automatic, contact ? displacement : inelastic) << "contact " << contact;
+  }
 }
 
 }  // namespace

@@ -25,14 +25,17 @@ struct StretchConfig {
   /// may change its length by at most this fraction of the rest length per substep.
   double strain_rate_limit_per_substep = 0.01;
   /// Velocity after a strain-limit projection: "displacement" adds displacement / dt (Selle
-  /// 2008); "inelastic" removes the edge's stretching relative velocity (docs/physics.md §3).
-  /// Default inelastic: the chart's errors within 0.4 % of displacement's in every run stable
-  /// with both and the same verdicts on the hard cases without hair contact, but displacement
-  /// leaves a fast-stretching edge still stretching and the next substep overshoots by more (the
-  /// largest strain before limiting on the chart's nod-and-shake scene at midpoint 1 ms: 9.2 %
-  /// against 10.8 %, past the chart's stability bound of twice the limit). With hair contact at
-  /// 2e-4 s, strands started on top of each other fail the energy check with inelastic only.
-  std::string limit_velocity = "inelastic";
+  /// 2008); "inelastic" removes the edge's stretching relative velocity (docs/physics.md §3);
+  /// "auto" (default) takes inelastic, or displacement while hair contact is on
+  /// (SolverConfig::inelasticStrainLimit). Without contact, inelastic: the chart's errors within
+  /// 0.4 % of displacement's in every run stable with both and the same verdicts on the hard
+  /// cases, but displacement leaves a fast-stretching edge still stretching and the next substep
+  /// overshoots by more (the largest strain before limiting on the chart's nod-and-shake scene at
+  /// midpoint 1 ms: 9.2 % against 10.8 %, past the chart's stability bound of twice the limit).
+  /// With contact (at its own longest substep, 5e-4 s), displacement: inelastic hands the root
+  /// side's speed along an edge that a push-out stretched to the tip side, and strands started on
+  /// top of each other fail the energy check at 2e-4 s; the split's error is larger too.
+  std::string limit_velocity = "auto";
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
@@ -324,6 +327,12 @@ struct SolverConfig {
   /// head at its start pose (identity orientation, as every scene starts; makeSagFree takes
   /// another head-frame gravity). Needs bend.stiffness_n_m2 > 0 when gravity is not zero.
   bool sag_free = false;
+  /// Whether the strain limit removes the stretching velocity (stretch.limit_velocity
+  /// "inelastic", or "auto" without hair contact) rather than adding displacement / dt.
+  bool inelasticStrainLimit() const {
+    return stretch.limit_velocity == "inelastic" ||
+           (stretch.limit_velocity == "auto" && !hair_contact.enabled);
+  }
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
