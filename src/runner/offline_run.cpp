@@ -140,6 +140,7 @@ std::string RunSummary::toJson() const {
       .add("rtf_window_s", rtf_window_s)
       .add("realtime_factor_windows", realtime_factor_windows)
       .add("integrator", integrator)
+      .add("limit_velocity", limit_velocity)
       .add("lane_layout", lane_layout)
       .add("threads", threads)
       .add("cpu", cpu)
@@ -284,6 +285,7 @@ RunSummary startSummary(const SceneConfig& scene, const RunOptions& options, lon
   s.series_stride = options.series_stride;
   s.rtf_window_s = options.rtf_window_s;
   s.integrator = scene.solver.integrator.method;
+  s.limit_velocity = scene.solver.inelasticStrainLimit() ? "inelastic" : "displacement";
   s.lane_layout = scene.solver.integrator.strand_lanes
                       ? std::string(scene.solver.integrator.resolvedLaneLayout())
                       : std::string("off");

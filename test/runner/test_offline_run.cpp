@@ -50,9 +50,11 @@ TEST(OfflineRun, SummaryOfAShortNod) {
   for (const char* key :
        {"\"strands\"", "\"particles\"", "\"steps\"", "\"substep_s\"", "\"wall_s\"", "\"sim_s\"",
         "\"max_strain\"", "\"mean_strain\"", "\"max_penetration_m\"", "\"repairs\"", "\"energy\"",
-        "\"finite\"", "\"cpu\"", "\"cohesion_float_lanes\"", "\"cohesion_wet_sums\""})
+        "\"finite\"", "\"cpu\"", "\"cohesion_float_lanes\"", "\"cohesion_wet_sums\"",
+        "\"limit_velocity\""})
     EXPECT_NE(json.find(key), std::string::npos) << key;
   EXPECT_EQ(s.cpu, describeThisCpu());
+  EXPECT_EQ(s.limit_velocity, "inelastic");  // "auto" without hair contact
   // The built-in scene's lattice runs in float, in the lanes the build chose for its CPU.
   EXPECT_EQ(s.cohesion_float_lanes, kCohesionFloatLanes);
   EXPECT_EQ(s.cohesion_wet_sums, "particles");
@@ -63,8 +65,8 @@ TEST(OfflineRun, TheDefaultsAreStableOnTheChartsNodAndShake) {
   // set the default substep: the chart calls a run stable when it stays finite, repairs nothing
   // and no edge stretches past twice the strain limit before the limit acts
   // (wet_curly_hair_bench.cpp). The default substep (1e-3 s) holds that with the default strain
-  // limit velocity, "inelastic" (measured: 9.2 %); with "displacement" it did not (10.8 %:
-  // docs/physics.md §3), so the two defaults stand or fall together.
+  // limit velocity, "auto", here "inelastic" (measured: 9.2 %); with "displacement" it did not
+  // (10.8 %: docs/physics.md §3), so the two defaults stand or fall together.
   SceneConfig scene = builtinScene();
   scene.groom.strands = 50;
   scene.saturation.root = scene.saturation.tip = 0.0;
@@ -379,6 +381,7 @@ TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
     EXPECT_EQ(c.measurements, with);
     EXPECT_GE(c.crossings, 0);
     EXPECT_EQ(c.crossings_series.size(), 15u);  // 0.25 s at 60 Hz
+    EXPECT_EQ(c.limit_velocity, "displacement");  // "auto" with hair contact
   }
   ASSERT_EQ(s.measurement_s.size(), defaults.size());
   double sum = 0.0;

@@ -200,6 +200,9 @@ struct RunSummary {
   /// partial window included when it holds at least one frame).
   std::vector<double> realtime_factor_windows;
   std::string integrator;  ///< solver.integrator.method
+  /// The strain limit's velocity rule that ran: "inelastic" or "displacement" ("auto" resolved,
+  /// SolverConfig::inelasticStrainLimit).
+  std::string limit_velocity;
   /// solver.integrator.lane_layout, or "off" when strands run one at a time (strand_lanes).
   std::string lane_layout;
   int threads = 1;  ///< solver.integrator.threads
