@@ -380,7 +380,7 @@ TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
     with.insert(with.end() - 1, "crossings");
     EXPECT_EQ(c.measurements, with);
     EXPECT_GE(c.crossings, 0);
-    EXPECT_EQ(c.crossings_series.size(), 15u);  // 0.25 s at 60 Hz
+    EXPECT_EQ(c.crossings_series.size(), 15u);    // 0.25 s at 60 Hz
     EXPECT_EQ(c.limit_velocity, "displacement");  // "auto" with hair contact
   }
   ASSERT_EQ(s.measurement_s.size(), defaults.size());
