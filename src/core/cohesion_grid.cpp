@@ -570,36 +570,53 @@ inline WetSums ownStrandShare(const Lattice& L, const CohesionNodeGrid& g, const
 /// Lanes of the float own-strand pass: one register of floats.
 typedef float OwnLanes __attribute__((vector_size(4 * kCohesionFloatLanes)));
 
-/// A strand's own-strand shares in single precision for every particle i of the strand [begin,
-/// end), stored in g->own_*_f: sum_j w_ij of V_j (of 1 with particle_volumes false: the weight
-/// carries the volume) and of V_j sigma_j (p_j - p_i), with w_ij = pair_weight(j, e) and e the
-/// offset from p_i to the lowest node of j's cell. The particles i sit in lanes and the strand's
-/// particles j come one at a time, so every lane sums its own j in order and no horizontal sum is
-/// needed (with j in lanes, the 16-lane reductions of 4 sums cost as much as the 2 vector
-/// iterations of a 32-particle strand). Lengths are in lattice units (divided by c), so q and the
-/// kernel are O(1) and the sums scale back by c^6 and c^7. The offsets are formed as (k_j - k_i)
-/// - t_i: the cell difference is an exact integer in float, so each offset carries one rounding
-/// of its own size (relative 6e-8), not one of the lattice coordinates. Lanes past the strand's
-/// end read the next strand (or the arrays' padding) and are not stored.
+/// A strand's single-precision own-pair inputs and outputs, indexed from its first particle
+/// (ownSharesInLanes): the cells and fractions (CohesionNodeGrid::kx_f..), volumes and wet shares
+/// in, the shares out, each with room for kCohesionFloatLanes particles past the strand's end.
+struct OwnPairArrays {
+  const float *kx, *ky, *kz, *tx, *ty, *tz, *volume, *wet_share;
+  float *weight, *px, *py, *pz;
+};
+
+/// The view of the grid's own arrays (CohesionNodeGrid::kx_f.., own_*_f) at particle begin.
+OwnPairArrays gridOwnPairArrays(CohesionNodeGrid* g, int begin) {
+  return {g->kx_f.data() + begin,     g->ky_f.data() + begin,        g->kz_f.data() + begin,
+          g->tx_f.data() + begin,     g->ty_f.data() + begin,        g->tz_f.data() + begin,
+          g->volume_f.data() + begin, g->wet_share_f.data() + begin, g->own_weight_f.data() + begin,
+          g->own_px_f.data() + begin, g->own_py_f.data() + begin,    g->own_pz_f.data() + begin};
+}
+
+/// A strand's own-strand shares in single precision for every particle i of the strand (count
+/// particles, a's indices), stored in a.weight, a.px..: sum_j w_ij of V_j (of 1 with
+/// particle_volumes false: the weight carries the volume) and of V_j sigma_j (p_j - p_i), with
+/// w_ij = pair_weight(j, e) and e the offset from p_i to the lowest node of j's cell. The
+/// particles i sit in lanes and the strand's particles j come one at a time, so every lane sums
+/// its own j in order and no horizontal sum is needed (with j in lanes, the 16-lane reductions of
+/// 4 sums cost as much as the 2 vector iterations of a 32-particle strand). Lengths are in
+/// lattice units (divided by c), so q and the kernel are O(1) and the sums scale back by c^6 and
+/// c^7. The offsets are formed as (k_j - k_i) - t_i: the cell difference is an exact integer in
+/// float, so each offset carries one rounding of its own size (relative 6e-8), not one of the
+/// lattice coordinates. Lanes past the strand's end read past it (the next strand, or padding)
+/// and are not stored.
 template <typename PairWeight>
-WCH_INLINE void ownSharesInLanes(CohesionNodeGrid* g, int begin, int end, bool particle_volumes,
+WCH_INLINE void ownSharesInLanes(const OwnPairArrays& a, int count, bool particle_volumes,
                                  PairWeight pair_weight) {
   typedef OwnLanes V;
   constexpr int kW = kCohesionFloatLanes;
-  const float* __restrict kx = g->kx_f.data();
-  const float* __restrict ky = g->ky_f.data();
-  const float* __restrict kz = g->kz_f.data();
-  const float* __restrict tx = g->tx_f.data();
-  const float* __restrict ty = g->ty_f.data();
-  const float* __restrict tz = g->tz_f.data();
-  const float* __restrict vol = g->volume_f.data();
-  const float* __restrict wet = g->wet_share_f.data();
+  const float* __restrict kx = a.kx;
+  const float* __restrict ky = a.ky;
+  const float* __restrict kz = a.kz;
+  const float* __restrict tx = a.tx;
+  const float* __restrict ty = a.ty;
+  const float* __restrict tz = a.tz;
+  const float* __restrict vol = a.volume;
+  const float* __restrict wet = a.wet_share;
   const V zero = {};
-  for (int i0 = begin; i0 < end; i0 += kW) {
+  for (int i0 = 0; i0 < count; i0 += kW) {
     const V kxi = loadLanes<V>(kx + i0), kyi = loadLanes<V>(ky + i0), kzi = loadLanes<V>(kz + i0);
     const V txi = loadLanes<V>(tx + i0), tyi = loadLanes<V>(ty + i0), tzi = loadLanes<V>(tz + i0);
     V w_sum = zero, px = zero, py = zero, pz = zero;
-    for (int j = begin; j < end; ++j) {
+    for (int j = 0; j < count; ++j) {
       const V ex = (kx[j] - kxi) - txi, ey = (ky[j] - kyi) - tyi, ez = (kz[j] - kzi) - tzi;
       const V wt = pair_weight(j, ex, ey, ez);
       const V ws = wet[j] * wt;
@@ -608,12 +625,12 @@ WCH_INLINE void ownSharesInLanes(CohesionNodeGrid* g, int begin, int end, bool p
       py += ws * (ey + ty[j]);
       pz += ws * (ez + tz[j]);
     }
-    const int count = std::min(kW, end - i0);
-    for (int l = 0; l < count; ++l) {
-      g->own_weight_f[i0 + l] = w_sum[l];
-      g->own_px_f[i0 + l] = px[l];
-      g->own_py_f[i0 + l] = py[l];
-      g->own_pz_f[i0 + l] = pz[l];
+    const int lanes = std::min(kW, count - i0);
+    for (int l = 0; l < lanes; ++l) {
+      a.weight[i0 + l] = w_sum[l];
+      a.px[i0 + l] = px[l];
+      a.py[i0 + l] = py[l];
+      a.pz[i0 + l] = pz[l];
     }
   }
 }
@@ -624,44 +641,48 @@ template <bool kNodeVolumes>
 void ownStrandSharesSingle(const Lattice& L, CohesionNodeGrid* g, const NodeVolumes& nv, int begin,
                            int end) {
   typedef OwnLanes V;
-  const float* __restrict tx = g->tx_f.data();
-  const float* __restrict ty = g->ty_f.data();
-  const float* __restrict tz = g->tz_f.data();
+  const OwnPairArrays a = gridOwnPairArrays(g, begin);
+  const float* __restrict tx = a.tx;
+  const float* __restrict ty = a.ty;
+  const float* __restrict tz = a.tz;
   const double c2 = L.c * L.c;
   const float h2 = static_cast<float>(double(L.cells * L.cells));
   const float ka = static_cast<float>(L.ka / c2), kb = static_cast<float>(L.kb / (c2 * c2));
-  ownSharesInLanes(g, begin, end, !kNodeVolumes, [&](int j, const V& ex, const V& ey, const V& ez) {
-    // h^2 less the squared distance to each corner, as (h^2 - x^2) - (y^2 + z^2): the two x
-    // terms and four y-z sums are shared by the 8 corners.
-    const V reach_x[2] = {h2 - ex * ex, h2 - (ex + 1.0f) * (ex + 1.0f)};
-    const V y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
-            z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
-    const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
-                wz[2] = {1.0f - tz[j], tz[j]};
-    float corner[8];
-    nv.cornerFactors<kNodeVolumes>(L, *g, j, corner);
-    V wt = {};
-    for (int az = 0; az < 2; ++az)
-      for (int ay = 0; ay < 2; ++ay) {
-        const V yz = y2[ay] + z2[az];
-        for (int ax = 0; ax < 2; ++ax) {
-          const V q = positivePart(reach_x[ax] - yz);
-          wt += (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) * nodeKernel(q, ka, kb);
-        }
-      }
-    return wt;
-  });
+  ownSharesInLanes(a, end - begin, !kNodeVolumes,
+                   [&](int j, const V& ex, const V& ey, const V& ez) {
+                     // h^2 less the squared distance to each corner, as (h^2 - x^2) - (y^2 + z^2):
+                     // the two x terms and four y-z sums are shared by the 8 corners.
+                     const V reach_x[2] = {h2 - ex * ex, h2 - (ex + 1.0f) * (ex + 1.0f)};
+                     const V y2[2] = {ey * ey, (ey + 1.0f) * (ey + 1.0f)},
+                             z2[2] = {ez * ez, (ez + 1.0f) * (ez + 1.0f)};
+                     const float wx[2] = {1.0f - tx[j], tx[j]}, wy[2] = {1.0f - ty[j], ty[j]},
+                                 wz[2] = {1.0f - tz[j], tz[j]};
+                     float corner[8];
+                     nv.cornerFactors<kNodeVolumes>(L, *g, begin + j, corner);
+                     V wt = {};
+                     for (int az = 0; az < 2; ++az)
+                       for (int ay = 0; ay < 2; ++ay) {
+                         const V yz = y2[ay] + z2[az];
+                         for (int ax = 0; ax < 2; ++ax) {
+                           const V q = positivePart(reach_x[ax] - yz);
+                           wt += (wx[ax] * wy[ay] * wz[az] * corner[(az * 2 + ay) * 2 + ax]) *
+                                 nodeKernel(q, ka, kb);
+                         }
+                       }
+                     return wt;
+                   });
 }
 
 /// The own strand's share of eq. (10)'s sums as exact pairs in single precision
-/// (ownSharesInLanes): w_ij = W(|p_i - p_j|), i included (W(0) V_i).
-void exactOwnSharesSingle(const Lattice& L, CohesionNodeGrid* g, int begin, int end) {
+/// (ownSharesInLanes) over the strand's count particles: w_ij = W(|p_i - p_j|), i included
+/// (W(0) V_i).
+void exactOwnSharesSingle(const Lattice& L, const OwnPairArrays& a, int count) {
   typedef OwnLanes V;
-  const float* __restrict tx = g->tx_f.data();
-  const float* __restrict ty = g->ty_f.data();
-  const float* __restrict tz = g->tz_f.data();
+  const float* __restrict tx = a.tx;
+  const float* __restrict ty = a.ty;
+  const float* __restrict tz = a.tz;
   const float h2 = static_cast<float>(double(L.cells * L.cells));
-  ownSharesInLanes(g, begin, end, true, [&](int j, const V& ex, const V& ey, const V& ez) {
+  ownSharesInLanes(a, count, true, [&](int j, const V& ex, const V& ey, const V& ez) {
     const V dx = ex + tx[j], dy = ey + ty[j], dz = ez + tz[j];
     const V q = positivePart(h2 - (dx * dx + dy * dy + dz * dz));
     return q * q * q;
@@ -974,18 +995,16 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
     return [m, nodes_of_half](int64_t node, double t) { nodes_of_half[node] += t * m; };
   });
   // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
-  // its own: with gather_at "guides" the followers' would be written and never read), and with
-  // the node sums their cells (storeFloatCell), in the pass that has each particle's cell.
+  // its own: with gather_at "guides" the followers' would be written and never read), in the
+  // pass that has each particle's volume. The node sums form theirs a strand at a time
+  // (strandOwnPairArrays, latticeOwnShare).
   densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads,
-                            [&](int j, const CellPosition& cell) {
-                              if (j >= gathered) return;
-                              const double wet_share = g.volume[j] * state->saturation[j];
-                              if (!node_sums)
-                                g.wet_share[j] = wet_share;  // latticeOwnShare forms its own
+                            [&](int j, const CellPosition&) {
+                              if (j >= gathered || node_sums) return;
+                              g.wet_share[j] = g.volume[j] * state->saturation[j];
                               if (!single) return;
                               g.volume_f[j] = static_cast<float>(g.volume[j]);
-                              g.wet_share_f[j] = static_cast<float>(wet_share);
-                              if (node_sums) storeFloatCell(cell, j, &g);
+                              g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
                             });
 
   zero(&g.scalar, &g.scalar_b, nodes, threads);
@@ -1136,6 +1155,32 @@ WetSums latticeOwnShare(const Lattice& L, const NodeTaps<kCells>& taps, const Co
   return share;
 }
 
+/// The own-pair arrays of strand [begin, end) in the thread's scratch (its lane storage, free
+/// during the display pass): each particle's cell and fractions in float (storeFloatCell's
+/// values), its volume and wet share V sigma in float, zeros in the kCohesionFloatLanes past the
+/// end, and room for the shares.
+OwnPairArrays strandOwnPairArrays(const Lattice& L, const CohesionNodeGrid& g,
+                                  const HairState& state, int begin, int end,
+                                  StrandScratch* scratch) {
+  const int n = end - begin, room = n + kCohesionFloatLanes;
+  float* f = reinterpret_cast<float*>(scratch->lane_buffer.data());
+  float* column[12];
+  for (int c = 0; c < 12; ++c) column[c] = f + static_cast<size_t>(c) * room;
+  for (int k = 0; k < n; ++k) {
+    const int i = begin + k;
+    const CellPosition cell = cellPosition(L, state.position[i]);
+    for (int a = 0; a < 3; ++a) {
+      column[a][k] = static_cast<float>(cell.k[a]);
+      column[3 + a][k] = static_cast<float>(cell.t[a]);
+    }
+    column[6][k] = static_cast<float>(g.volume[i]);
+    column[7][k] = static_cast<float>(g.volume[i] * state.saturation[i]);
+  }
+  for (int c = 0; c < 8; ++c) std::fill(column[c] + n, column[c] + room, 0.0f);
+  return {column[0], column[1], column[2], column[3], column[4],  column[5],
+          column[6], column[7], column[8], column[9], column[10], column[11]};
+}
+
 /// Eq. (10)'s sums at the gathered particles from the convolved nodes (grid_wet_sums "nodes"),
 /// the own strand subtracted (kExactOwnRatio), written as in evaluateOnLattice. Returns the
 /// number of particles moved.
@@ -1157,8 +1202,9 @@ int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg,
   const ConvolvedWetNodes convolved{g.qx.data(), g.wet_splat_b.data()};
   const double c6 = std::pow(L.c, 6);
   const detail::DisplayWrite write = detail::displayWrite(cfg, state);
-  // A strand at a time: its own shares, then its particles' sums, while the shares are in the
-  // cache (as two passes over every particle, the shares went to memory and came back).
+  // A strand at a time: its cells and own shares in the thread's scratch, then its particles'
+  // sums, so that none of them goes to memory (stored per particle by the earlier passes and read
+  // back here, they moved about 150 bytes per particle).
   return static_cast<int>(parallelSum(threads, 16, gathered_strands, [&](int s) -> int {
     const int begin = model.strandBegin(s), end = begin + model.strandSize(s);
     bool wet_strand = at_guides;
@@ -1167,7 +1213,9 @@ int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg,
       for (int i = begin; i < end; ++i) write.unmoved(i, p[i]);
       return 0;
     }
-    exactOwnSharesSingle(L, &g, begin, end);
+    const OwnPairArrays own_pairs =
+        strandOwnPairArrays(L, g, *state, begin, end, &state->scratch[detail::threadIndex()]);
+    exactOwnSharesSingle(L, own_pairs, end - begin);
     int moved = 0;
     for (int i = begin; i < end; ++i) {
       const bool wet_particle = state->saturation[i] > 0.0;
@@ -1177,8 +1225,9 @@ int displayFromConvolvedNodes(const HairModel& model, const CohesionConfig& cfg,
       }
       const WetSums all = interpolateWetSums(L, convolved, cellPosition(L, p[i]));
       WetSums own;
-      own.weight = c6 * double(g.own_weight_f[i]);
-      own.pull = (c6 * L.c) * Vec3(g.own_px_f[i], g.own_py_f[i], g.own_pz_f[i]);
+      const int k = i - begin;
+      own.weight = c6 * double(own_pairs.weight[k]);
+      own.pull = (c6 * L.c) * Vec3(own_pairs.px[k], own_pairs.py[k], own_pairs.pz[k]);
       if (!(all.weight - own.weight > kExactOwnRatio * own.weight))
         own = latticeOwnShare<kCells>(L, taps, g, p, state->saturation.data(), begin, end, i);
       moved += writeClumpOffset(cfg, all, own, g.volume[i] * poly6Shape(0.0, h2), wet_particle,

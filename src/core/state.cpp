@@ -18,7 +18,8 @@ void StrandScratch::resize(int n) {
   // The strand block (strand_block.h, carveBlockArrays): per particle 15 lane vectors of 3 lane
   // values, 3 lane matrices of 9, 11 lane scalars and 2 axial lengths of 2, a lane value being at
   // most 64 bytes (8 doubles or 16 floats), then two 3-vectors of doubles for one lane, plus
-  // alignment slack.
+  // alignment slack. The followers' placement and the lattice's per-strand own pairs
+  // (cohesion_grid.cpp, 12 float arrays of a strand plus 16 each) use it between steps.
   lane_capacity = n;
   step_position.assign(static_cast<size_t>(kBlockStrands) * n, Vec3::Zero());
   step_velocity.assign(static_cast<size_t>(kBlockStrands) * n, Vec3::Zero());

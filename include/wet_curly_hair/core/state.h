@@ -138,8 +138,8 @@ struct CohesionNodeGrid {
   /// particles only).
   std::vector<double> volume;
   /// V sigma (the gathered strands' particles only; with grid_node_volumes sigma, the corners
-  /// carrying m / rho of their nodes). Not written with the sums convolved at the nodes, whose
-  /// rare double own shares form it from volume and the saturation.
+  /// carrying m / rho of their nodes). Not written with the sums convolved at the nodes, which
+  /// form it per strand (their float own pairs in the thread's StrandScratch::lane_buffer).
   std::vector<double> wet_share;
   // The gathered strands' particles only (the passes over every particle compute these from
   // the positions):
@@ -148,10 +148,11 @@ struct CohesionNodeGrid {
   /// only: the sums convolved at the nodes form it from the position where they need it.
   std::vector<double> rx, ry, rz;
   /// Single-precision lowest node of the particle's cell (kx_f..) and trilinear fractions in it
-  /// (tx_f..), and copies of volume and wet_share, read by the float own-strand sums (in lattice
-  /// units: cell indices are exact in float, fractions lose nothing that matters);
+  /// (tx_f..), and copies of volume and wet_share, read by the gathers' float own-strand sums (in
+  /// lattice units: cell indices are exact in float, fractions lose nothing that matters);
   /// written for the gathered strands' particles only (with gather_at "guides", the guides').
-  /// Padded by kCohesionFloatLanes particles (zeros).
+  /// Padded by kCohesionFloatLanes particles (zeros). The sums convolved at the nodes keep these
+  /// and own_*_f per strand in the thread's scratch instead.
   std::vector<float> kx_f, ky_f, kz_f, tx_f, ty_f, tz_f, volume_f, wet_share_f;
   /// The own strand's share of each particle's sums, in float and lattice units (weight / c^6,
   /// pull / c^7).
