@@ -957,7 +957,7 @@ inline double densityNorm(double h) { return 315.0 / (64.0 * M_PI * std::pow(h, 
 template <int kCells, typename EachParticle>
 void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, int count,
                        double ka, double kb, HairState* state, int threads,
-                       EachParticle each_particle) {
+                       EachParticle each_particle) {  // each_particle(i) once i's volume is set
   CohesionNodeGrid& g = state->cohesion_grid;
   const Vec3List& p = state->position;
   addInto(&g.scalar, g.scalar_b, nodes, threads);
@@ -966,10 +966,9 @@ void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, 
   convolveNodeBlocks<kCells, 1>(L, g.scalar.data(), g.scalar.data(), node_density,
                                 NodeTaps<kCells>(L, ka, kb), threads);
   parallelFor(threads, Schedule::kStatic, 0, count, [&](int i) {
-    const CellPosition cell = cellPosition(L, p[i]);
-    state->density[i] = norm * interpolateNodes(L, cell, node_density);
+    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
     g.volume[i] = model.mass_kg[i] / state->density[i];
-    each_particle(i, cell);
+    each_particle(i);
   });
 }
 
@@ -998,14 +997,13 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
   // its own: with gather_at "guides" the followers' would be written and never read), in the
   // pass that has each particle's volume. The node sums form theirs a strand at a time
   // (strandOwnPairArrays, latticeOwnShare).
-  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads,
-                            [&](int j, const CellPosition&) {
-                              if (j >= gathered || node_sums) return;
-                              g.wet_share[j] = g.volume[j] * state->saturation[j];
-                              if (!single) return;
-                              g.volume_f[j] = static_cast<float>(g.volume[j]);
-                              g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
-                            });
+  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads, [&](int j) {
+    if (j >= gathered || node_sums) return;
+    g.wet_share[j] = g.volume[j] * state->saturation[j];
+    if (!single) return;
+    g.volume_f[j] = static_cast<float>(g.volume[j]);
+    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
+  });
 
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
@@ -1034,8 +1032,7 @@ NodeVolumes splatWithNodeVolumes(const HairModel& model, const Lattice& L, int64
     const double m = model.mass_kg[j];
     return wetSplat(&g, L, cell, half, m, m * state->saturation[j]);
   });
-  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads,
-                            [](int, const CellPosition&) {});
+  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads, [](int) {});
   parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
     g.wet_share[i] = state->saturation[i];  // the corner factors carry m / rho_n
     if (!single) return;
@@ -1156,9 +1153,10 @@ WetSums latticeOwnShare(const Lattice& L, const NodeTaps<kCells>& taps, const Co
 }
 
 /// The own-pair arrays of strand [begin, end) in the thread's scratch (its lane storage, free
-/// during the display pass): each particle's cell and fractions in float (storeFloatCell's
-/// values), its volume and wet share V sigma in float, zeros in the kCohesionFloatLanes past the
-/// end, and room for the shares.
+/// during the display pass, holds 12 (n + kCohesionFloatLanes) floats for any strand of n
+/// particles: StrandScratch::resize): each particle's cell and fractions in float
+/// (storeFloatCell's values), its volume and wet share V sigma in float, zeros in the
+/// kCohesionFloatLanes past the end, and room for the shares.
 OwnPairArrays strandOwnPairArrays(const Lattice& L, const CohesionNodeGrid& g,
                                   const HairState& state, int begin, int end,
                                   StrandScratch* scratch) {
@@ -1254,8 +1252,8 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // The gathered strands' particles' positions on the lattice, stored for their gathers and
   // own-strand shares, with their cells and trilinear fractions in float for the float shares
   // (the passes over every particle compute them from the positions: cellPosition).
-  // With the node sums the float cells are stored by the densities' pass (splatWithParticleVolumes)
-  // and the stored positions are not read (latticeOwnShare forms its own).
+  // The node sums store neither: they form each strand's float cells in the thread's scratch
+  // (strandOwnPairArrays) and latticeOwnShare its positions.
   if (!node_sums) {
     parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
       const CellPosition cell = cellPosition(L, p[j]);
