@@ -152,8 +152,9 @@ void escape(void* p) { asm volatile("" : : "g"(p) : "memory"); }
 
 /// Heap calls made by `steps` steps of the scene after `warmup` steps.
 HeapCalls heapCallsInSteps(const std::string& method, int threads, int warmup, int steps,
-                           int follow_ratio = 1) {
+                           int follow_ratio = 1, const std::string& wet_sums = "auto") {
   SolverConfig c;
+  c.cohesion.grid_wet_sums = wet_sums;
   c.integrator.method = method;
   c.integrator.substep_s = method == "explicit" ? 2e-4 : 1.0 / 240;
   c.integrator.threads = threads;
@@ -297,6 +298,16 @@ TEST(SolverAllocations, AStepAllocatesNothing) {
       EXPECT_EQ(calls.allocations, 0) << method << ", " << threads << " thread(s)";
       EXPECT_EQ(calls.frees, 0) << method << ", " << threads << " thread(s)";
     }
+  }
+}
+
+// The lattice's sums convolved at its nodes (what `auto` takes on dense grooms; this one is
+// sparse, so it takes the gathers above): their per-strand arrays live in the thread's scratch.
+TEST(SolverAllocations, AStepWithTheNodeSumsAllocatesNothing) {
+  for (int threads : {1, 2}) {
+    const HeapCalls calls = heapCallsInSteps("midpoint", threads, 3, 10, 1, "nodes");
+    EXPECT_EQ(calls.allocations, 0) << threads << " thread(s)";
+    EXPECT_EQ(calls.frees, 0) << threads << " thread(s)";
   }
 }
 
