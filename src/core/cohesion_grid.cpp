@@ -82,15 +82,14 @@ inline CellPosition cellPosition(const Lattice& L, const Vec3& p) {
   return c;
 }
 
-/// Particle j's cell and trilinear fractions in float (CohesionNodeGrid::kx_f..), for the float
-/// own-strand shares.
-inline void storeFloatCell(const CellPosition& cell, int j, CohesionNodeGrid* g) {
-  g->kx_f[j] = static_cast<float>(cell.k[0]);
-  g->ky_f[j] = static_cast<float>(cell.k[1]);
-  g->kz_f[j] = static_cast<float>(cell.k[2]);
-  g->tx_f[j] = static_cast<float>(cell.t[0]);
-  g->ty_f[j] = static_cast<float>(cell.t[1]);
-  g->tz_f[j] = static_cast<float>(cell.t[2]);
+/// A particle's cell and trilinear fractions in float, for the float own-strand shares, into
+/// entry k of the six columns kx, ky, kz, tx, ty, tz (CohesionNodeGrid::kx_f.., or a strand's
+/// scratch: strandOwnPairArrays).
+inline void storeFloatCell(const CellPosition& cell, float* const column[6], int k) {
+  for (int a = 0; a < 3; ++a) {
+    column[a][k] = static_cast<float>(cell.k[a]);
+    column[3 + a][k] = static_cast<float>(cell.t[a]);
+  }
 }
 
 /// The vectors of double: one register of the build's widest, 8 lanes with AVX-512 and 4
@@ -1166,11 +1165,7 @@ OwnPairArrays strandOwnPairArrays(const Lattice& L, const CohesionNodeGrid& g,
   for (int c = 0; c < 12; ++c) column[c] = f + static_cast<size_t>(c) * room;
   for (int k = 0; k < n; ++k) {
     const int i = begin + k;
-    const CellPosition cell = cellPosition(L, state.position[i]);
-    for (int a = 0; a < 3; ++a) {
-      column[a][k] = static_cast<float>(cell.k[a]);
-      column[3 + a][k] = static_cast<float>(cell.t[a]);
-    }
+    storeFloatCell(cellPosition(L, state.position[i]), column, k);
     column[6][k] = static_cast<float>(g.volume[i]);
     column[7][k] = static_cast<float>(g.volume[i] * state.saturation[i]);
   }
@@ -1255,20 +1250,22 @@ int evaluateOnLattice(const HairModel& model, const CohesionConfig& cfg, const L
   // The node sums store neither: they form each strand's float cells in the thread's scratch
   // (strandOwnPairArrays) and latticeOwnShare its positions.
   if (!node_sums) {
+    float* const float_cells[6] = {g.kx_f.data(), g.ky_f.data(), g.kz_f.data(),
+                                   g.tx_f.data(), g.ty_f.data(), g.tz_f.data()};
     parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int j) {
       const CellPosition cell = cellPosition(L, p[j]);
       g.rx[j] = cell.r.x();
       g.ry[j] = cell.r.y();
       g.rz[j] = cell.r.z();
-      if (single) storeFloatCell(cell, j, &g);  // read by the float own-strand shares only
+      if (single) storeFloatCell(cell, float_cells, j);  // read by the float own shares only
     });
   }
 
   const NodeVolumes volumes =
       cfg.grid_node_volumes
           ? splatWithNodeVolumes<kCells>(model, L, nodes, gathered, single, state, threads)
-          : splatWithParticleVolumes<kCells>(model, L, nodes, gathered, single || node_sums,
-                                             node_sums, state, threads);
+          : splatWithParticleVolumes<kCells>(model, L, nodes, gathered, single, node_sums, state,
+                                             threads);
   if (node_sums) {
     const int clumped = displayFromConvolvedNodes<kCells>(model, cfg, L, state, gathered,
                                                           gathered_strands, at_guides, threads);
