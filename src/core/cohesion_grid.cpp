@@ -700,10 +700,12 @@ inline std::pair<int, int> splatHalf(int half, int n) {
   return half == 0 ? std::make_pair(0, n / 2) : std::make_pair(n / 2, n);
 }
 
-/// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell, half) gives the
-/// particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node, t)
-/// for each corner node with its trilinear weight t, so that the particle's values are read
-/// once, not once per corner. One thread does both halves in turn; a team gives each half its
+/// Splats every particle of p onto the 8 nodes of its cell: particle(j, cell, half, owner) gives
+/// the particle's adder for its half's copy of the node arrays (kSplatHalves), called as add(node,
+/// t) for each corner node with its trilinear weight t, so that the particle's values are read
+/// once, not once per corner. A particle whose cell spans two threads' layers is visited by both;
+/// `owner` is true on exactly one visit (the thread holding the cell's lower layer), the one that
+/// may store per-particle values. One thread does both halves in turn; a team gives each half its
 /// share of the threads, and a half's threads split its node layers kz evenly, each scanning the
 /// half's particles in order and adding only to its own layers.
 /// Every node of a copy receives its additions in particle order, as in a serial loop, so the
@@ -727,7 +729,7 @@ void splat(const Lattice& L, const Vec3List& p, int threads, Particle particle) 
         const CellPosition cell = cellPosition(L, p[j]);
         const int64_t cx = static_cast<int64_t>(cell.k[0]), cy = static_cast<int64_t>(cell.k[1]);
         const double tx = cell.t[0], ty = cell.t[1], tz = cell.t[2];
-        auto add = particle(j, cell, half);
+        auto add = particle(j, cell, half, cz >= z_lo);
         for (int az = 0; az < 2; ++az) {
           const int64_t kz = cz + az;
           if (kz < z_lo || kz >= z_hi) continue;
@@ -950,64 +952,77 @@ inline WetSplat wetSplat(CohesionNodeGrid* g, const Lattice& L, const CellPositi
 /// The density rho = norm sum_j m_j W(|x - p_j|) of eq. (10)'s volumes, from the node sums.
 inline double densityNorm(double h) { return 315.0 / (64.0 * M_PI * std::pow(h, 9)); }
 
-/// The splatted mass's halves summed (scalar), the density at the nodes convolved with the node
-/// kernel (ka, kb) into wet_volume (unnormalised: densityNorm), and the density and volume V = m
-/// / rho of particles [0, count) from their cells' nodes.
-template <int kCells, typename EachParticle>
-void densitiesFromMass(const HairModel& model, const Lattice& L, int64_t nodes, int count,
-                       double ka, double kb, HairState* state, int threads,
-                       EachParticle each_particle) {  // each_particle(i) once i's volume is set
-  CohesionNodeGrid& g = state->cohesion_grid;
-  const Vec3List& p = state->position;
-  addInto(&g.scalar, g.scalar_b, nodes, threads);
-  const double norm = densityNorm(L.h);
-  double* const node_density = g.wet_volume.data();
-  convolveNodeBlocks<kCells, 1>(L, g.scalar.data(), g.scalar.data(), node_density,
+/// The splatted mass's halves summed (scalar) and the density at the nodes convolved with the
+/// node kernel (ka, kb) into wet_volume (unnormalised: densityNorm), which it returns.
+template <int kCells>
+const double* nodeDensities(const Lattice& L, int64_t nodes, double ka, double kb,
+                            CohesionNodeGrid* g, int threads) {
+  addInto(&g->scalar, g->scalar_b, nodes, threads);
+  double* const node_density = g->wet_volume.data();
+  convolveNodeBlocks<kCells, 1>(L, g->scalar.data(), g->scalar.data(), node_density,
                                 NodeTaps<kCells>(L, ka, kb), threads);
-  parallelFor(threads, Schedule::kStatic, 0, count, [&](int i) {
-    state->density[i] = norm * interpolateNodes(L, cellPosition(L, p[i]), node_density);
-    g.volume[i] = model.mass_kg[i] / state->density[i];
-    each_particle(i);
-  });
+  return node_density;
+}
+
+/// A particle's density from its cell's nodes (nodeDensities' array; norm: densityNorm), and
+/// its volume V = m / rho.
+struct ParticleDensity {
+  double density, volume;
+};
+WCH_INLINE ParticleDensity particleDensity(const Lattice& L, const CellPosition& cell,
+                                           const double* node_density, double norm, double mass) {
+  const double density = norm * interpolateNodes(L, cell, node_density);
+  return ParticleDensity{density, mass / density};
 }
 
 /// The node arrays of eq. (10) with the particle volumes V_j = m_j / rho_j: pass 1 splats the
 /// mass (the two halves' copies summed); the density at the nodes, then at every particle from
 /// its cell's nodes (the lattice's density field is smooth on the scale h: convolving once per
 /// node and interpolating costs a fraction of a gather per particle, at 1.02x its error against
-/// exact, docs/physics.md 7.3), followers included with gather_at "guides"; pass 2 splats V,
-/// V sigma and V sigma (p - x_ref). Pass 2's node arrays are free until it starts: the node
-/// densities go to wet_volume.
+/// exact, docs/physics.md 7.3), followers included with gather_at "guides", taken by pass 2 as
+/// it splats V, V sigma and V sigma (p - x_ref). Pass 2 writes its node arrays' other copies: the
+/// node densities it reads are in wet_volume.
 template <int kCells>
 NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, int64_t nodes,
                                      int gathered, bool single, bool node_sums, HairState* state,
                                      int threads) {
   CohesionNodeGrid& g = state->cohesion_grid;
   const Vec3List& p = state->position;
-  const int n = model.particleCount();
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   double* const mass_nodes[kSplatHalves] = {g.scalar.data(), g.scalar_b.data()};
-  splat(L, p, threads, [&](int j, const CellPosition&, int half) {
+  splat(L, p, threads, [&](int j, const CellPosition&, int half, bool) {
     const double m = model.mass_kg[j];
     double* const nodes_of_half = mass_nodes[half];
     return [m, nodes_of_half](int64_t node, double t) { nodes_of_half[node] += t * m; };
   });
-  // V sigma of the gathered strands' particles, for their own-strand shares (the splat forms
-  // its own: with gather_at "guides" the followers' would be written and never read), in the
-  // pass that has each particle's volume. The node sums form theirs a strand at a time
-  // (strandOwnPairArrays, latticeOwnShare).
-  densitiesFromMass<kCells>(model, L, nodes, n, L.ka_both, L.kb_both, state, threads, [&](int j) {
-    if (j >= gathered || node_sums) return;
-    g.wet_share[j] = g.volume[j] * state->saturation[j];
-    if (!single) return;
-    g.volume_f[j] = static_cast<float>(g.volume[j]);
-    g.wet_share_f[j] = static_cast<float>(g.wet_share[j]);
-  });
-
+  const double* const node_density =
+      nodeDensities<kCells>(L, nodes, L.ka_both, L.kb_both, &g, threads);
+  const double norm = densityNorm(L.h);
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
-  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
-    return wetSplat(&g, L, cell, half, g.volume[j], g.volume[j] * state->saturation[j]);
+  // Pass 2 takes each particle's density from its cell's nodes as it splats it (a pass of their
+  // own read the positions and masses again and wrote the volumes only for this one to read them
+  // back). Its owning visit stores what the later passes read: the volume (the own-strand shares
+  // and include_self), the density with the gathers, and the gathered strands' V sigma for their
+  // own-strand shares (with gather_at "guides" the followers' would be written and never read).
+  // The node sums form their V sigma a strand at a time (strandOwnPairArrays, latticeOwnShare).
+  splat(L, p, threads, [&](int j, const CellPosition& cell, int half, bool owner) {
+    const ParticleDensity d = particleDensity(L, cell, node_density, norm, model.mass_kg[j]);
+    const double wet_share = d.volume * state->saturation[j];
+    if (owner) {
+      g.volume[j] = d.volume;
+      if (!node_sums) {
+        state->density[j] = d.density;
+        if (j < gathered) {
+          g.wet_share[j] = wet_share;
+          if (single) {
+            g.volume_f[j] = static_cast<float>(d.volume);
+            g.wet_share_f[j] = static_cast<float>(wet_share);
+          }
+        }
+      }
+    }
+    return wetSplat(&g, L, cell, half, d.volume, wet_share);
   });
   // The sums convolved at the nodes take the two halves as the splat left them.
   if (!node_sums) spreadWetSplat(&g, nodes, single, 0.0, threads);
@@ -1027,12 +1042,17 @@ NodeVolumes splatWithNodeVolumes(const HairModel& model, const Lattice& L, int64
   const Vec3List& p = state->position;
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
-  splat(L, p, threads, [&](int j, const CellPosition& cell, int half) {
+  splat(L, p, threads, [&](int j, const CellPosition& cell, int half, bool) {
     const double m = model.mass_kg[j];
     return wetSplat(&g, L, cell, half, m, m * state->saturation[j]);
   });
-  densitiesFromMass<kCells>(model, L, nodes, gathered, L.ka, L.kb, state, threads, [](int) {});
+  const double* const node_density = nodeDensities<kCells>(L, nodes, L.ka, L.kb, &g, threads);
+  const double norm = densityNorm(L.h);
   parallelFor(threads, Schedule::kStatic, 0, gathered, [&](int i) {
+    const ParticleDensity d =
+        particleDensity(L, cellPosition(L, p[i]), node_density, norm, model.mass_kg[i]);
+    state->density[i] = d.density;
+    g.volume[i] = d.volume;
     g.wet_share[i] = state->saturation[i];  // the corner factors carry m / rho_n
     if (!single) return;
     g.volume_f[i] = static_cast<float>(g.volume[i]);

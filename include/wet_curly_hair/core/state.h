@@ -232,7 +232,8 @@ struct HairState {
   std::vector<StiffnessFactorKey> stiffness_factor_key;
   Vec3List external_force;  ///< per particle: cross-strand forces of the baselines, N.
   /// Per particle: SPH density scratch (cohesion), kg/m^3-ish; with the lattice's node volumes
-  /// (CohesionConfig::grid_node_volumes) written for the gathered particles only.
+  /// (CohesionConfig::grid_node_volumes) written for the gathered particles only, and not at all
+  /// with the lattice's sums convolved at its nodes (grid_wet_sums "nodes": no pass reads it).
   std::vector<double> density;
   Vec3List normal_scratch;  ///< per particle: Akinci surface normals (kim baseline).
   /// Per guide particle (followers.h; empty without followers), head frame: its position and its
