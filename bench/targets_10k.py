@@ -10,8 +10,9 @@ with --follow-ratio 10) run through wet_curly_hair_run with --no-measure, as in 
 per target, the median real-time factor, the range over the runs and the stages' CPU seconds of
 the median run, with the CPU as the runner names it (its JSON's `cpu`: name, family, model,
 avx512f), the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`) and the
-lattice the defaults ran on the groom (`cohesion`, `cohesion_wet_sums`); writes
-OUT/targets_10k.csv (every run). The node's target has its own script (bench/node_10k.sh),
+lattice the defaults ran on the groom (`cohesion`, `cohesion_wet_sums`), and the ratio of the
+two targets' medians (the figure the machine's hour moves least); writes OUT/targets_10k.csv
+(every run). The node's target has its own script (bench/node_10k.sh),
 since it needs a ROS graph.
 """
 import argparse
@@ -84,6 +85,12 @@ def main():
                            for stage, v in median_run["stages"].items() if v["cpu_s"] >= 0.05)
         print("%-25s RTF median %.3f (%.3f-%.3f); the median run's stages, CPU s: %s" %
               (name, statistics.median(rtf), rtf[0], rtf[-1], stages))
+    # The machine's speed moves both targets alike (they take turns), so their ratio is the
+    # figure an hour moves least: K = 10 as a share of the dynamics alone.
+    medians = {name: statistics.median(s["realtime_factor"] for s in summaries)
+               for name, summaries in runs.items()}
+    print("defaults_follow_ratio_10 / simulated_theta_240: %.2f (the medians' ratio)" %
+          (medians["defaults_follow_ratio_10"] / medians["simulated_theta_240"]))
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "targets_10k.csv"), "w") as f:
         f.write("# %s, %d threads, %d strands, %g s\n" % (cpu, args.threads, args.strands,

@@ -166,6 +166,11 @@ check "targets_10k.py names the lanes the build chose for the CPU and the lattic
   "grep -Eq 'lanes float(8|16), lattice floats (8|16); cohesion grid[34], sums at the (particles|nodes)\$' $out/targets.txt"
 check "targets_10k.py prints both targets' medians and writes every run" \
   "grep -q '^simulated_theta_240 .*RTF median' $out/targets.txt && grep -q '^defaults_follow_ratio_10 .*RTF median' $out/targets.txt && [ \$(grep -c ',[12],' $out/targets/targets_10k.csv) -eq 4 ] && head -1 $out/targets/targets_10k.csv | grep -q 'avx512f'"
+# The ratio of the medians, as printed, from the medians as printed (each rounded to 3 decimals).
+ratio_check=$(awk '/^simulated_theta_240 .*RTF median/ {a = $4} /^defaults_follow_ratio_10 .*RTF median/ {b = $4}
+  /^defaults_follow_ratio_10 \/ simulated_theta_240: / {r = $4}
+  END {d = b / a - r; if (a > 0 && r != "" && d < 0.006 && d > -0.006) print "ok"}' "$out/targets.txt")
+check "targets_10k.py prints the ratio of the two targets' medians" "[ '$ratio_check' = ok ]"
 /usr/bin/python3 "$here/bench/targets_10k.py" --build "$build" --runs 0 > /dev/null \
   2> "$out/targets_err"
 targets_rc=$?
