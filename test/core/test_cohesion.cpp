@@ -1,7 +1,9 @@
 // Stable cohesion (eq. 10, A11-A14) and the force-based baselines.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/cohesion_grid.h"
@@ -172,6 +174,21 @@ struct WetScene {
     for (int k = 0; k < 6; ++k) step(model, solver, inputs, 1.0 / 30.0, &state, nullptr);
   }
 };
+
+/// The display pass's per-particle scratch of the first `particles` entries set to NaN (the
+/// float arrays' padding past them stays zero, as the lanes need it): an entry read in a call
+/// that did not write it (a particle no thread stored) shows as a non-finite or different p^w.
+void poisonDisplayScratch(int particles, HairState* s) {
+  CohesionNodeGrid& g = s->cohesion_grid;
+  for (std::vector<double>* v : {&g.volume, &g.wet_share, &g.rx, &g.ry, &g.rz, &s->density})
+    std::fill_n(v->begin(), std::min<size_t>(v->size(), particles),
+                std::numeric_limits<double>::quiet_NaN());
+  for (std::vector<float>* v :
+       {&g.kx_f, &g.ky_f, &g.kz_f, &g.tx_f, &g.ty_f, &g.tz_f, &g.volume_f, &g.wet_share_f,
+        &g.own_weight_f, &g.own_px_f, &g.own_py_f, &g.own_pz_f})
+    std::fill_n(v->begin(), std::min<size_t>(v->size(), particles),
+                std::numeric_limits<float>::quiet_NaN());
+}
 
 struct Discrepancy {
   double rms_m = 0.0, max_m = 0.0;            ///< |p^w_grid - p^w_exact|
@@ -606,6 +623,9 @@ TEST(CohesionGrid, IsTranslationInvariantAndThreadIndependent) {
     HairState b = a.state;
     for (Vec3& x : b.position) x += shift;
     HairState a1 = a.state, a2 = a.state, a3 = a.state, a5 = a.state;
+    // The steps left the scratch of an evaluation at these very positions: poisoned, every
+    // thread count must write what it reads (the splat's owning visits store each particle's).
+    for (HairState* s : {&a1, &a2, &a3, &a5, &b}) poisonDisplayScratch(a.model.particleCount(), s);
     const int n1 = computeDisplayCohesion(a.model, c, &a1, 1);
     const int n2 = computeDisplayCohesion(a.model, c, &a2, 2);
     // 3 and 5 threads: the splat's halves get unequal teams, and a team of more than one
@@ -617,6 +637,7 @@ TEST(CohesionGrid, IsTranslationInvariantAndThreadIndependent) {
     EXPECT_EQ(n1, n2);
     double worst = 0.0;
     for (int i = 0; i < a.model.particleCount(); ++i) {
+      ASSERT_TRUE(a1.wet_position[i].allFinite()) << "particle " << i;
       ASSERT_EQ(a1.wet_position[i], a2.wet_position[i]) << "1 vs 2 threads, particle " << i;
       ASSERT_EQ(a1.wet_position[i], a3.wet_position[i]) << "1 vs 3 threads, particle " << i;
       ASSERT_EQ(a1.wet_position[i], a5.wet_position[i]) << "1 vs 5 threads, particle " << i;
