@@ -1001,11 +1001,12 @@ NodeVolumes splatWithParticleVolumes(const HairModel& model, const Lattice& L, i
   zero(&g.scalar, &g.scalar_b, nodes, threads);
   zero(&g.wet_splat, &g.wet_splat_b, 4 * nodes, threads);
   // Pass 2 takes each particle's density from its cell's nodes as it splats it (a pass of their
-  // own read the positions and masses again and wrote the volumes only for this one to read them
-  // back). Its owning visit stores what the later passes read: the volume (the own-strand shares
-  // and include_self), the density with the gathers, and the gathered strands' V sigma for their
-  // own-strand shares (with gather_at "guides" the followers' would be written and never read).
-  // The node sums form their V sigma a strand at a time (strandOwnPairArrays, latticeOwnShare).
+  // own would read the positions and masses again and store the volumes only for this one to
+  // read them back). Its owning visit stores what the later passes read: the volume (the own-strand
+  // shares and include_self), the density with the gathers, and the gathered strands' V sigma for
+  // their own-strand shares (with gather_at "guides" the followers' would be written and never
+  // read). The node sums form their V sigma a strand at a time (strandOwnPairArrays,
+  // latticeOwnShare).
   splat(L, p, threads, [&](int j, const CellPosition& cell, int half, bool owner) {
     const ParticleDensity d = particleDensity(L, cell, node_density, norm, model.mass_kg[j]);
     const double wet_share = d.volume * state->saturation[j];
