@@ -11,8 +11,8 @@ per target, the median real-time factor, the range over the runs and the stages'
 the median run, with the CPU as the runner names it (its JSON's `cpu`: name, family, model,
 avx512f), the lanes the build chose for it (`lane_layout`, `cohesion_float_lanes`) and the
 lattice the defaults ran on the groom (`cohesion`, `cohesion_wet_sums`), and the ratio of the
-two targets' medians; writes OUT/targets_10k.csv (every run). The node's target has its own script (bench/node_10k.sh),
-since it needs a ROS graph.
+two targets' medians; writes OUT/targets_10k.csv (every run). The node's target has its own
+script (bench/node_10k.sh), since it needs a ROS graph.
 """
 import argparse
 import json
@@ -85,9 +85,9 @@ def main():
         print("%-25s RTF median %.3f (%.3f-%.3f); the median run's stages, CPU s: %s" %
               (name, statistics.median(rtf), rtf[0], rtf[-1], stages))
     # K = 10 as a share of the dynamics alone: the targets take turns, so a drift of the
-    # machine's speed over the script's runs moves both alike (changes faster than a run do not
-    # cancel: on the fifth-generation EPYC the ratio moved 0.63-0.78 between runs of the script
-    # minutes apart).
+    # machine's speed over the script's runs moves both alike; a change from one run to the next
+    # does not cancel (on the fifth-generation EPYC the ratio moved 0.63-0.78 between runs of the
+    # script minutes apart).
     medians = {name: statistics.median(s["realtime_factor"] for s in summaries)
                for name, summaries in runs.items()}
     print("defaults_follow_ratio_10 / simulated_theta_240: %.2f (the medians' ratio)" %
