@@ -5,7 +5,10 @@
 // bench_followers, at --strands output strands and follow ratio --follow-ratio, stepped
 // --warm-frames output frames so that the guides have moved; then the same frame's stage timed
 // --runs times on --threads threads. Prints the median and the fastest wall time per follower
-// particle (placement) or per output particle (display), with the CPU. The saturation
+// particle (placement) or per output particle (display), with the CPU, and a hash of the stage's
+// output (FNV-1a of the bytes of every particle's position, or display position with --stage
+// display): the same for any thread count, and the check that a change meant to move no output
+// moved none (run both builds at the same options). The saturation
 // does not change between the runs, so after the first the followers' exaggerated rest shapes
 // are the state's held copies, as on every frame of a scene without water or commands. The
 // machines of docs/followers.md vary by tens of % from minute to minute: compare two builds by
@@ -17,6 +20,7 @@
 //                                 all|guides] [--node-volumes true|false]
 //                                 [--wet-sums auto|particles|nodes] [--cells 2..16]
 #include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -50,6 +54,17 @@ struct Options {
   std::string wet_sums = CohesionConfig().grid_wet_sums;  ///< the default unless --wet-sums
   int cells = CohesionConfig().grid_cells_per_radius;     ///< the default unless --cells
 };
+
+/// FNV-1a (64 bits) of the bytes of positions: equal positions to the bit give equal hashes.
+uint64_t positionHash(const Vec3List& positions) {
+  uint64_t hash = 1469598103934665603ull;
+  const unsigned char* byte = reinterpret_cast<const unsigned char*>(positions.data());
+  for (size_t k = 0; k < positions.size() * sizeof(Vec3); ++k) {
+    hash ^= byte[k];
+    hash *= 1099511628211ull;
+  }
+  return hash;
+}
 
 bool parse(int argc, char** argv, Options* o) {
   const bool read =
@@ -140,5 +155,9 @@ int main(int argc, char** argv) {
       "median %.1f ns, fastest %.1f ns per particle\n",
       bench::cpuLine().c_str(), o.strands, o.follow_ratio, timed, display ? "output" : "follower",
       display ? pass.c_str() : "placement", o.threads, o.runs, ns[ns.size() / 2], ns.front());
+  std::printf(
+      "output hash %016llx (%s)\n",
+      static_cast<unsigned long long>(positionHash(display ? state.wet_position : state.position)),
+      display ? "display positions" : "positions");
   return 0;
 }

@@ -112,7 +112,8 @@ check "bench_water reports the water stage's share of the dynamics" \
   "grep -q 'CPU: ' $out/water.txt && grep -q '% of the dynamics' $out/water.txt"
 # The follower placement alone (bench/bench_follower_placement.cpp) runs, reports ns per follower
 # particle with the CPU, times the display pass alone per output particle with --stage display,
-# and refuses a follow ratio without followers and an unknown stage.
+# hashes each stage's output the same on 1 and 3 threads, and refuses a follow ratio without
+# followers and an unknown stage.
 placement=$(tool_path bench_follower_placement "$build") || exit 1
 "$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 3 > "$out/placement.txt" 2>&1
 placement_rc=$?
@@ -135,6 +136,20 @@ check "bench_follower_placement --node-volumes true runs (got $placement_rc)" \
 placement_rc=$?
 check "bench_follower_placement --wet-sums nodes --cells 4 names the lattice it ran (got $placement_rc)" \
   "[ $placement_rc -eq 0 ] && grep -q 'sums at all, nodes: at the nodes, 4 nodes per radius, .*ns per particle' $out/display_nodes.txt"
+# The output hash (FNV-1a of the positions' bytes) is what a change meant to move nothing is
+# checked with: every thread count must print the same, on both lattice paths and the placement.
+output_hashes() {  # $1: threads; prints one hash per stage run
+  local threads=$1
+  for stage in "--stage placement" "--stage display" "--stage display --wet-sums nodes"; do
+    # shellcheck disable=SC2086
+    "$placement" --strands 40 --follow-ratio 4 --warm-frames 2 --runs 1 --threads "$threads" \
+      $stage | sed -n 's/^output hash \([0-9a-f]\{16\}\) .*/\1/p'
+  done
+}
+hashes_1=$(output_hashes 1 | tr '\n' ' ')
+hashes_3=$(output_hashes 3 | tr '\n' ' ')
+check "bench_follower_placement hashes its output the same on 1 and 3 threads (got '$hashes_1' and '$hashes_3')" \
+  "[ \$(echo '$hashes_1' | wc -w) -eq 3 ] && [ '$hashes_1' = '$hashes_3' ]"
 "$placement" --follow-ratio 1 > /dev/null 2> "$out/placement_err"
 placement_rc=$?
 check "bench_follower_placement refuses --follow-ratio 1 (got $placement_rc)" \
