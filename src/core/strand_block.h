@@ -201,24 +201,20 @@ void planBlockStages(Block<S>& blk) {
   blk.obstacle_reach = std::max(config.obstacle.offset_m, config.adhesion.radius_m);
 }
 
-/// gatherBlock's copies of the state, array by array and lane by lane (each lane reads one
-/// strand's run of one array in order), and the model's per-particle constants, read where the
-/// model laid them in lanes (HairModel::lanes) or copied the same way. Particle by particle
-/// (every lane's value of every array, 8 strands x 16 arrays read side by side) the gather and
-/// scatter cost 1.3x as much at 10,000 strands (AMD EPYC with AVX2, theta 1/240 s: 0.75-0.78
-/// against 0.59-0.60 s per simulated second on one thread, 0.81-1.14 against 0.62-0.66 CPU s on
-/// two), with the same lanes to the bit.
+/// gatherArrays' copies of the state, array by array and lane by lane (each lane reads one
+/// strand's run of one array in order): positions relative to the origin with what rounding
+/// them into the lanes lost (the carry), velocities and saturations. Particle by particle in
+/// scalars (every lane's value of every array, 8 strands x 16 arrays read side by side) the
+/// gather and scatter
+/// cost 1.3x as much at 10,000 strands (AMD EPYC with AVX2, theta 1/240 s: 0.75-0.78 against
+/// 0.59-0.60 s per simulated second on one thread, 0.81-1.14 against 0.62-0.66 CPU s on two),
+/// with the same lanes to the bit.
 template <typename S>
-void gatherArrays(Block<S>& blk) {
+void gatherStateByLane(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
-  const HairModel& model = blk.model;
   const HairState& state = *blk.state;
   constexpr int kWidth = Block<S>::kWidth;
   const int n = blk.n;
-  for (int i = 0; i < n; ++i) {
-    a.obstacle_slack[i] = splat<S>(-1.0);  // the distance caches start empty every step
-    a.head_slack[i] = splat<S>(-1.0);
-  }
   // The carry starts as what rounding the position into the lane lost, and goes back out at the
   // scatter: the position keeps double's resolution from step to step.
   for (int l = 0; l < kWidth; ++l) {
@@ -240,6 +236,89 @@ void gatherArrays(Block<S>& blk) {
     for (int i = 0; i < n; ++i) setLane(&a.v[i], l, velocity[i]);
     for (int i = 0; i < n; ++i) setLaneValue(&a.sigma[i], l, saturation[i]);
   }
+}
+
+#if defined(__AVX512F__)
+/// 16 doubles, base[index[l]] for lane l, fetched by two gathers of 8.
+struct GatheredRow {
+  __m512d low, high;  ///< lanes 0-7 and 8-15
+};
+WCH_INLINE GatheredRow gatherRow(const double* base, __m512i index) {
+  return {_mm512_i32gather_pd(_mm512_castsi512_si256(index), base, 8),
+          _mm512_i32gather_pd(_mm512_extracti64x4_epi64(index, 1), base, 8)};
+}
+/// A gathered row rounded to float, as setLaneValue rounds each lane.
+WCH_INLINE LaneFloat16 roundRow(const GatheredRow& r) {
+  const __m256d low = _mm256_castps_pd(_mm512_cvtpd_ps(r.low));
+  const __m256d high = _mm256_castps_pd(_mm512_cvtpd_ps(r.high));
+  return reinterpret_cast<LaneFloat16>(_mm512_insertf64x4(_mm512_castpd256_pd512(low), high, 1));
+}
+/// The float lanes back in double, less a row: what rounding it into the lanes lost.
+WCH_INLINE GatheredRow roundingLoss(const LaneFloat16& rounded, const GatheredRow& r) {
+  const __m512 f = reinterpret_cast<__m512>(rounded);
+  const __m512d low = _mm512_cvtps_pd(_mm512_castps512_ps256(f));
+  const __m512d high =
+      _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(f), 1)));
+  return {_mm512_sub_pd(low, r.low), _mm512_sub_pd(high, r.high)};
+}
+
+/// gatherStateByLane on 16 float lanes, a particle's row at a time: each array's 16 doubles of
+/// the row gathered into registers, shifted, rounded and stored as one vector, where the lane
+/// by lane copy stored each float on its own (ten stores per particle and lane). The same
+/// subtractions and roundings: the same lanes to the bit (StrandBlock.TheRowGather... tests).
+/// Indices are 32-bit: for models of fewer than 2^31 / 3 particles (rowGatherFits).
+inline void gatherStateByRow(Block<LaneFloat16>& blk) {
+  BlockArrays<LaneFloat16>& a = blk.a;
+  const HairState& state = *blk.state;
+  const double* position = state.position.data()->data();
+  const double* velocity = state.velocity.data()->data();
+  const double* saturation = state.saturation.data();
+  const __m512i begin = _mm512_loadu_si512(blk.begin);
+  for (int i = 0; i < blk.n; ++i) {
+    const __m512i particle = _mm512_add_epi32(begin, _mm512_set1_epi32(i));
+    const __m512i first = _mm512_mullo_epi32(particle, _mm512_set1_epi32(3));
+    LaneFloat16* p[3] = {&a.p[i].x, &a.p[i].y, &a.p[i].z};
+    LaneFloat16* carry[3] = {&a.p_carry[i].x, &a.p_carry[i].y, &a.p_carry[i].z};
+    LaneFloat16* v[3] = {&a.v[i].x, &a.v[i].y, &a.v[i].z};
+    for (int axis = 0; axis < 3; ++axis) {
+      const __m512i index = _mm512_add_epi32(first, _mm512_set1_epi32(axis));
+      GatheredRow relative = gatherRow(position, index);
+      const __m512d origin = _mm512_set1_pd(blk.origin[axis]);
+      relative = {_mm512_sub_pd(relative.low, origin), _mm512_sub_pd(relative.high, origin)};
+      *p[axis] = roundRow(relative);
+      *carry[axis] = roundRow(roundingLoss(*p[axis], relative));
+      *v[axis] = roundRow(gatherRow(velocity, index));
+    }
+    a.sigma[i] = roundRow(gatherRow(saturation, particle));
+  }
+}
+
+/// The row gather's indices fit in 32 bits.
+inline bool rowGatherFits(const HairModel& model) {
+  return 3 * static_cast<int64_t>(model.particleCount()) < (int64_t{1} << 31);
+}
+#endif
+
+/// gatherBlock's copies of the state (gatherStateByLane), by rows where this build has them, and
+/// the model's per-particle constants, read where the model laid them in lanes
+/// (HairModel::lanes) or copied the same way.
+template <typename S>
+void gatherArrays(Block<S>& blk) {
+  BlockArrays<S>& a = blk.a;
+  const HairModel& model = blk.model;
+  const int n = blk.n;
+  for (int i = 0; i < n; ++i) {
+    a.obstacle_slack[i] = splat<S>(-1.0);  // the distance caches start empty every step
+    a.head_slack[i] = splat<S>(-1.0);
+  }
+  bool by_rows = false;
+#if defined(__AVX512F__)
+  if constexpr (std::is_same<S, LaneFloat16>::value) {
+    by_rows = rowGatherFits(model);
+    if (by_rows) gatherStateByRow(blk);
+  }
+#endif
+  if (!by_rows) gatherStateByLane(blk);
   // The constants where the model laid them (the same lanes to the bit), else gathered here.
   const S* laid = laidConstantLanes<S>(model, blk.strand[0], n);
   const ConstantLanes<S> c =

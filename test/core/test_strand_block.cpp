@@ -164,6 +164,63 @@ TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
   expectTheCarryKeepsDoublePositions<LaneFloat8>();
 }
 
+#if defined(__AVX512F__)
+/// The row gather of 16 float lanes (gatherStateByRow, what gatherArrays runs on them) stores
+/// what the lane-by-lane gather does, to the bit: positions relative to the origin and their
+/// carry, velocities and saturations, on 20 strands moved off the world's origin and shaken,
+/// with velocities and saturations of every size, for the first block and the last, partial one
+/// (its padding lanes repeat the last strand).
+TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
+  SolverConfig config;
+  GroomConfig g;
+  g.strands = 20;
+  g.particles = 24;
+  HairModel model;
+  std::string why;
+  ASSERT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(),
+                         config, &model, &why))
+      << why;
+  HairState state = makeState(model, Pose(), Twist());
+  StepInputs inputs;
+  inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(-2e-3, 2e-3), speed(-3.0, 3.0), wet(0.0, 1.0);
+  for (size_t k = 0; k < state.position.size(); ++k) {
+    state.position[k] +=
+        inputs.head_start.translation + Vec3(jitter(rng), jitter(rng), jitter(rng));
+    state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
+    state.saturation[k] = wet(rng);
+  }
+  const SolverPlan plan = planStep(model, config, 1e-3);
+  StepStats stats;
+  StrandFlags flags[kMaxStrandLanes];
+  for (int first : {0, 16}) {
+    const int active = std::min(16, model.strandCount() - first);
+    Block<LaneFloat16> blk(model, config, inputs, plan, &state, &state.scratch[0], &stats, 1e-3);
+    initBlock(&blk, first, active, flags);
+    const int n = blk.n;
+    // What the row gather stored, then the lane gather over it.
+    auto copy = [n](const auto* from, int per_particle) {
+      const auto* bytes = reinterpret_cast<const unsigned char*>(from);
+      return std::vector<unsigned char>(bytes, bytes + n * per_particle * sizeof(LaneFloat16));
+    };
+    const auto p = copy(blk.a.p, 3), carry = copy(blk.a.p_carry, 3), v = copy(blk.a.v, 3),
+               sigma = copy(blk.a.sigma, 1);
+    gatherStateByLane(blk);
+    EXPECT_EQ(p, copy(blk.a.p, 3)) << "positions, block from strand " << first;
+    EXPECT_EQ(carry, copy(blk.a.p_carry, 3)) << "carry, block from strand " << first;
+    EXPECT_EQ(v, copy(blk.a.v, 3)) << "velocities, block from strand " << first;
+    EXPECT_EQ(sigma, copy(blk.a.sigma, 1)) << "saturations, block from strand " << first;
+    // The carry is not all zero: the comparison sees the rounding.
+    double largest_carry = 0.0;
+    for (int i = 0; i < n; ++i)
+      for (int l = 0; l < active; ++l)
+        largest_carry = std::max(largest_carry, std::abs(lane(blk.a.p_carry[i], l).x()));
+    EXPECT_GT(largest_carry, 1e-10);
+  }
+}
+#endif
+
 /// Particles in lanes of S wandering in and out of contact with a head with a neck, while the
 /// head turns and moves: head collision with the distance cache and without it, on copies, makes
 /// the same contacts and moves the particles the same to round-off (the two calls may contract
