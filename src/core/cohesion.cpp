@@ -165,15 +165,17 @@ int computeDisplayCohesion(const HairModel& model, const CohesionConfig& c, Hair
                            int threads) {
   const Vec3List& p = state->position;
   const detail::DisplayWrite write = detail::displayWrite(c, state);
+  // Nothing to display: p^w = p everywhere, read from the positions (displayPositions).
+  state->display_is_position = !(c.mode == "ours" && c.tightness > 0.0 && anyWet(*state));
+  if (state->display_is_position) return 0;
   // The lattice writes every particle's p^w (and held offset) itself; the others start at p.
-  if (c.mode == "ours" && c.tightness > 0.0 && c.evaluation == "grid" && anyWet(*state)) {
+  if (c.evaluation == "grid") {
     const int clumped = computeDisplayCohesionGrid(model, c, state, threads);
     if (clumped >= 0) return clumped;
     ++state->warnings.cohesion_grid_fallbacks;  // lattice too small for the hair's box: exact
   }
   parallelFor(threads, Schedule::kStatic, 0, static_cast<int>(p.size()),
               [&](int i) { write.unmoved(i, p[i]); });
-  if (c.mode != "ours" || c.tightness <= 0.0 || !anyWet(*state)) return 0;
   const double h = c.radius_m, h2 = h * h;
   // Cells of h: measured, cells of h/2 or h/3 (fewer candidates, more cells and hash
   // collisions) cost 1.7x and 2.8x more on 100 wet strands.
@@ -230,6 +232,8 @@ int updateDisplayCohesion(const HairModel& model, const CohesionConfig& c, doubl
   // Round-off of the frame times must not skip an evaluation that is due.
   const double since = time_s - state->display_evaluated_s;
   const bool hold = period > 0.0 && since >= 0.0 && since < period * (1.0 - 1e-9);
+  // The evaluation held had nothing to display: its offsets are all zero.
+  if (hold && state->display_is_position) return 0;
   if (!hold) {
     // With period > 0 this writes the held offsets too (DisplayWrite).
     const int clumped = computeDisplayCohesion(model, c, state, threads);

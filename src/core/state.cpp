@@ -81,6 +81,7 @@ void resetState(const HairModel& model, const Pose& head_pose, const Twist& head
     state->velocity[i] = head_twist.velocityAt(state->position[i], head_pose.translation);
   }
   state->wet_position = state->position;
+  state->display_is_position = false;
   std::fill(state->display_offset.begin(), state->display_offset.end(), Vec3::Zero());
   state->display_evaluated_s = std::numeric_limits<double>::quiet_NaN();
   for (int s = 0; s < model.strandCount(); ++s) {

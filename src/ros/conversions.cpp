@@ -43,7 +43,7 @@ void stateToStrandsMsg(const HairModel& model, const HairState& state, bool with
   toFloats(state.saturation.data(), n, threads, msg->saturation.data());
   if (with_wet_positions && state.wet_position.size() == n) {
     msg->wet_positions.resize(3 * n);
-    toFloats(coordinates(state.wet_position), 3 * n, threads, msg->wet_positions.data());
+    toFloats(coordinates(displayPositions(state)), 3 * n, threads, msg->wet_positions.data());
   } else {
     msg->wet_positions.clear();
   }
@@ -83,7 +83,7 @@ void stateToMarkerArray(const HairModel& model, const HairState& state, bool use
   m.lifetime = ros::Duration(0);
   m.frame_locked = false;
   const Vec3List& x = use_wet_positions && state.wet_position.size() == state.position.size()
-                          ? state.wet_position
+                          ? displayPositions(state)
                           : state.position;
   size_t edges = 0;
   for (int s = 0; s < model.strandCount(); s += strand_stride)

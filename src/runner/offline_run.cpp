@@ -211,7 +211,7 @@ bool writeFrame(const std::string& dir, int frame, const HairModel& model, const
   char name[64];
   std::snprintf(name, sizeof(name), "/frame_%05d.hair", frame);
   HairFileData data =
-      groomPositionsToHair(model.strand_offsets, state.wet_position, &state.saturation);
+      groomPositionsToHair(model.strand_offsets, displayPositions(state), &state.saturation);
   return writeHairFile(dir + name, data, why);
 }
 
@@ -462,9 +462,9 @@ class FrameMeasurements {
     if (measureCrossings()) timed(kMeasureCrossings, [&] { recordCrossings(f, *state, s); });
     if (options_.tangle_series && f % options_.tangle_series_stride == 0) {
       timed(kMeasureTangleSeries, [&] {
-        s->max_tangles = std::max(
-            s->max_tangles, tangleCount(model_, state->wet_position, scene_.run.strand_radius_m,
-                                        &scratch_, threads_, sample_stride_));
+        s->max_tangles = std::max(s->max_tangles, tangleCount(model_, displayPositions(*state),
+                                                              scene_.run.strand_radius_m, &scratch_,
+                                                              threads_, sample_stride_));
       });
     }
   }
@@ -494,9 +494,9 @@ class FrameMeasurements {
     for (int k = 0; k < model_.strandCount(); ++k)
       z += state.position[model_.strandBegin(k) + model_.strandSize(k) - 1].z();
     s->mean_tip_height_m.push_back(model_.strandCount() ? z / model_.strandCount() : 0.0);
-    s->clump_distance_series_m.push_back(clumpDistance(model_, state.wet_position, state.saturation,
-                                                       scene_.run.clump_search_m, &scratch_,
-                                                       threads_, sample_stride_));
+    s->clump_distance_series_m.push_back(clumpDistance(model_, displayPositions(state),
+                                                       state.saturation, scene_.run.clump_search_m,
+                                                       &scratch_, threads_, sample_stride_));
   }
 
   /// The measurements of the last frame and the means over the run.
@@ -509,17 +509,17 @@ class FrameMeasurements {
     if (options_.clump_distance)
       timed(kMeasureClumpDistance, [&] {
         s->clump_distance_m =
-            clumpDistance(model_, state.wet_position, state.saturation, scene_.run.clump_search_m,
-                          &scratch_, threads_, sample_stride_);
+            clumpDistance(model_, displayPositions(state), state.saturation,
+                          scene_.run.clump_search_m, &scratch_, threads_, sample_stride_);
       });
     if (options_.tangles)
       timed(kMeasureTangles, [&] {
         const double r = scene_.run.strand_radius_m;
-        s->tangles =
-            tangleCount(model_, state.wet_position, r, &scratch_, threads_, sample_stride_);
+        const Vec3List& shown = displayPositions(state);
+        s->tangles = tangleCount(model_, shown, r, &scratch_, threads_, sample_stride_);
         // Without display cohesion the output positions are the simulated ones: count once.
         s->tangles_sim =
-            state.wet_position == state.position
+            &shown == &state.position || shown == state.position
                 ? s->tangles
                 : tangleCount(model_, state.position, r, &scratch_, threads_, sample_stride_);
       });
@@ -610,11 +610,12 @@ class FrameMeasurements {
   /// order, so any thread count gives the same value.
   void measureJitter(long f, const HairState& state, const Pose& pose) {
     const Mat3 to_head = pose.rotation.conjugate().toRotationMatrix();
+    const Vec3List& shown = displayPositions(state);
     auto strand = [&](int st) {
       double sum = 0.0;
       for (int i = model_.strandBegin(st); i < model_.strandBegin(st) + model_.strandSize(st);
            ++i) {
-        const Vec3 x = to_head * (state.wet_position[i] - pose.translation);
+        const Vec3 x = to_head * (shown[i] - pose.translation);
         if (f >= 2) sum += (x - 2.0 * out_prev1_[i] + out_prev2_[i]).squaredNorm();
         out_prev2_[i] = out_prev1_[i];
         out_prev1_[i] = x;

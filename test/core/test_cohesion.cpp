@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <limits>
+#include <string>
 
 #include "wet_curly_hair/core/cohesion.h"
 #include "wet_curly_hair/core/cohesion_grid.h"
@@ -53,7 +54,45 @@ TEST(Cohesion, DryHairIsUntouched) {
   c.evaluation = "exact";  // eq. (10) summed over every neighbour: the analytic answers
   EXPECT_EQ(computeDisplayCohesion(f.model, c, &f.state), 0);
   for (int i = 0; i < f.model.particleCount(); ++i)
-    EXPECT_EQ(f.state.wet_position[i], f.state.position[i]);
+    EXPECT_EQ(displayPositions(f.state)[i], f.state.position[i]);
+}
+
+TEST(Cohesion, NothingToDisplayLeavesTheDisplayToThePositions) {
+  // Dry hair, cohesion off on wet hair, and tightness 0: p^w = p everywhere, and the pass writes
+  // no display position (a frame's copy of every position); displayPositions reads the positions.
+  // The hair moved since its display positions were written, so a stale list would show.
+  const double frame = 1.0 / 60.0;
+  for (const char* what : {"dry", "off", "tightness 0"}) {
+    Fixture f(0.005);
+    CohesionConfig c;
+    if (std::string(what) != "dry")
+      std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
+    if (std::string(what) == "off") c.mode = "off";
+    if (std::string(what) == "tightness 0") c.tightness = 0.0;
+    const Vec3List written = f.state.wet_position;
+    for (Vec3& p : f.state.position) p += Vec3(0.01, -0.02, 0.03);
+    EXPECT_EQ(updateDisplayCohesion(f.model, c, frame, &f.state), 0) << what;
+    EXPECT_TRUE(f.state.display_is_position) << what;
+    EXPECT_EQ(f.state.wet_position, written) << what << ": nothing written";
+    EXPECT_EQ(&displayPositions(f.state), &f.state.position) << what;
+  }
+  // Held offsets: an evaluation with nothing to display holds nothing, not the offsets of the
+  // evaluation before it; the next one displays again, written and read.
+  Fixture f(0.005);
+  CohesionConfig c;
+  c.refresh_period_s = 2.0 * frame;
+  std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, frame, &f.state), 20);
+  EXPECT_FALSE(f.state.display_is_position);
+  std::fill(f.state.saturation.begin(), f.state.saturation.end(), 0.0);
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 3.0 * frame, &f.state), 0);  // dry: nothing
+  std::fill(f.state.saturation.begin(), f.state.saturation.end(), 1.0);
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 4.0 * frame, &f.state), 0);  // held: still nothing
+  EXPECT_TRUE(f.state.display_is_position);
+  EXPECT_EQ(updateDisplayCohesion(f.model, c, 5.0 * frame, &f.state), 20);
+  EXPECT_FALSE(f.state.display_is_position);
+  EXPECT_EQ(&displayPositions(f.state), &f.state.wet_position);
+  EXPECT_GT(f.state.wet_position[0].x() - f.state.position[0].x(), 1e-3) << "pulled to strand 1";
 }
 
 TEST(Cohesion, WetNeighboursClumpIsolatedParticlesStay) {

@@ -34,7 +34,9 @@ void forEachOtherStrandNeighbor(const NeighborGrid& grid, const Vec3List& positi
 /// over particles j of other strands within h (poly6 kernel, V_j = m_j / rho_j, rho from all
 /// particles within h, self included). Dry particles and isolated ones keep p^w = p. Writes
 /// state->wet_position, and the offsets p^w - p to state->display_offset where config holds them
-/// between evaluations (refresh_period_s > 0); the dynamics never read either. Returns the number
+/// between evaluations (refresh_period_s > 0); the dynamics never read either. With nothing to
+/// display (mode not "ours", tightness 0 or no wet particle) it writes neither and sets
+/// state->display_is_position: displayPositions() then reads the positions. Returns the number
 /// of wet particles that found neighbours.
 int computeDisplayCohesion(const HairModel& model, const CohesionConfig& config, HairState* state,
                            int threads = 1);

@@ -216,8 +216,14 @@ struct HairState {
   WaterLedger water_ledger;
   WaterScratch water_scratch;
   /// Cohesion display positions p^w of eq. (10), world frame, m: for output only, never read by
-  /// the dynamics (A14). Equal to position where cohesion is off or the particle is dry.
+  /// the dynamics (A14). Equal to position where the particle is dry. Read them through
+  /// displayPositions(): where the last display pass had nothing to display (display_is_position)
+  /// this list is left as it was.
   Vec3List wet_position;
+  /// The last display pass (updateDisplayCohesion) found p^w = p for every particle (cohesion
+  /// mode not "ours", tightness 0, or no wet particle) and wrote nothing: a copy of every
+  /// position each frame cost 4 % of the 10,000-strand dynamics (docs/performance.md).
+  bool display_is_position = false;
   /// cohesion.refresh_period_s > 0: the display offsets p^w - p of the last evaluation, and its
   /// simulated time (NaN: none since the state was made or reset).
   Vec3List display_offset;
@@ -261,6 +267,13 @@ struct HairState {
   /// One per solver thread (config.integrator.threads <= kMaxSolverThreads).
   std::vector<StrandScratch> scratch;
 };
+
+/// The cohesion display positions p^w of eq. (10) after the last step: HairState::wet_position,
+/// or the positions themselves where the display pass had nothing to display
+/// (HairState::display_is_position).
+inline const Vec3List& displayPositions(const HairState& state) {
+  return state.display_is_position ? state.position : state.wet_position;
+}
 
 /// Allocates the state for a model and places the hair in its rest pose, carried by `head_pose`
 /// and moving rigidly with the head (`head_twist`, world frame, about the head origin).
