@@ -155,9 +155,9 @@ int main(int argc, char** argv) {
       "median %.1f ns, fastest %.1f ns per particle\n",
       bench::cpuLine().c_str(), o.strands, o.follow_ratio, timed, display ? "output" : "follower",
       display ? pass.c_str() : "placement", o.threads, o.runs, ns[ns.size() / 2], ns.front());
-  std::printf(
-      "output hash %016llx (%s)\n",
-      static_cast<unsigned long long>(positionHash(display ? state.wet_position : state.position)),
-      display ? "display positions" : "positions");
+  std::printf("output hash %016llx (%s)\n",
+              static_cast<unsigned long long>(
+                  positionHash(display ? displayPositions(state) : state.position)),
+              display ? "display positions" : "positions");
   return 0;
 }

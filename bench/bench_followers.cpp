@@ -111,18 +111,17 @@ Row runK(const Options& o, int k, const Reference* reference, Reference* store,
   options.tangles = false;
   options.on_frame = [&](int frame, const HairState& state) {
     if (frame % o.compare_stride != 0) return;
-    if (display_store)
-      display_store->emplace_back(state.wet_position.begin() + follower_particle0,
-                                  state.wet_position.end());
+    const Vec3List& shown = displayPositions(state);
+    if (display_store) display_store->emplace_back(shown.begin() + follower_particle0, shown.end());
     for (int s = first_follower; s < model.strandCount(); ++s) {
       const int begin = model.strandBegin(s);
       for (int i = begin; i < begin + model.strandSize(s); ++i) {
         const double len = model.strand_length_m[s];
-        const double off = (state.wet_position[i] - state.position[i]).norm() / len;
+        const double off = (shown[i] - state.position[i]).norm() / len;
         offset_sum2 += off * off;
         if (display_reference) {
           const Vec3& ref = (*display_reference)[frame / o.compare_stride][i - follower_particle0];
-          const double e = (state.wet_position[i] - ref).norm() / len;
+          const double e = (shown[i] - ref).norm() / len;
           display_sum2 += e * e;
           display_max = std::max(display_max, e);
         }
@@ -140,7 +139,7 @@ Row runK(const Options& o, int k, const Reference* reference, Reference* store,
     }
     if (store) {  // the full run: groom order is model order
       store->position.push_back(state.position);
-      store->wet_position.push_back(state.wet_position);
+      store->wet_position.push_back(shown);
       return;
     }
     const Vec3List& ref = reference->position[frame / o.compare_stride];
@@ -155,8 +154,8 @@ Row runK(const Options& o, int k, const Reference* reference, Reference* store,
         sum2 += e * e;
         max = std::max(max, e);
         ++count;
-        const double w = (state.wet_position[begin + i] - ref_wet[ref_begin + i]).norm() /
-                         model.strand_length_m[s];
+        const double w =
+            (shown[begin + i] - ref_wet[ref_begin + i]).norm() / model.strand_length_m[s];
         full_display_sum2 += w * w;
       }
       const double e = (state.position[begin + n - 1] - ref[ref_begin + n - 1]).norm() /

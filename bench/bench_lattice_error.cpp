@@ -111,8 +111,8 @@ int main(int argc, char** argv) {
       if (state.saturation[i] <= 0.0) continue;
       const int kind = i < simulated_end ? 0 : 1;
       for (int v = 0; v < 2; ++v)
-        volumes[v].add(kind, (lattice[v].wet_position[i] - exact.wet_position[i]).norm());
-      offset_squared += (exact.wet_position[i] - state.position[i]).squaredNorm();
+        volumes[v].add(kind, (displayPositions(lattice[v])[i] - displayPositions(exact)[i]).norm());
+      offset_squared += (displayPositions(exact)[i] - state.position[i]).squaredNorm();
       ++wet_particles;
     }
   }

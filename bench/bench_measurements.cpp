@@ -109,9 +109,9 @@ bool benchStrands(const Options& o, int strands, std::string* why) {
   const int threads = scene.solver.integrator.threads;
   const double t0 = now();
   const int exact =
-      tangleCount(model, last.wet_position, scene.run.strand_radius_m, &scratch, threads);
+      tangleCount(model, displayPositions(last), scene.run.strand_radius_m, &scratch, threads);
   const double t1 = now();
-  const double clump = clumpDistance(model, last.wet_position, last.saturation,
+  const double clump = clumpDistance(model, displayPositions(last), last.saturation,
                                      scene.run.clump_search_m, &scratch, threads);
   const double t2 = now();
   std::printf(

@@ -178,7 +178,8 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
   if (keep_frames && !io::buildSceneModel(scene, &model, why)) return false;
   if (keep_frames)
     options.on_frame = [&](int f, const HairState& state) {
-      result->frames.push_back(state.wet_position);
+      const wet_curly_hair::Vec3List& shown = wet_curly_hair::displayPositions(state);
+      result->frames.push_back(shown);
       result->sim_frames.push_back(state.position);
       if (f == 0) return;  // the initial state: the same in every run
       const wet_curly_hair::Pose pose =
@@ -190,9 +191,9 @@ bool runOnce(io::SceneConfig scene, const Setting& setting, int threads, bool ke
       const wet_curly_hair::ShapeSamples& s = result->shape;
       const size_t sizes[3] = {s.tip_height_m.size(), s.curl_radius_m.size(),
                                s.clump_distance_m.size()};
-      sample(state.wet_position, &result->shape);
+      sample(shown, &result->shape);
       // Without the cohesion display pass the output positions are the simulated ones.
-      if (state.wet_position == state.position)
+      if (&shown == &state.position || shown == state.position)
         copyTail(result->shape, sizes, &result->sim_shape);
       else
         sample(state.position, &result->sim_shape);

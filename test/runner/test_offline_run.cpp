@@ -428,16 +428,16 @@ TEST(OfflineRun, MeasurementsAreNamedTimedAndFollowTheirFlags) {
   ASSERT_TRUE(buildSceneModel(scene, &model, &why)) << why;
   MetricScratch scratch;
   const double r = scene.run.strand_radius_m, search = scene.run.clump_search_m;
-  const int exact = tangleCount(model, last.wet_position, r, &scratch, 1, 1);
-  const int estimate = tangleCount(model, last.wet_position, r, &scratch, 1, 3);
+  const int exact = tangleCount(model, displayPositions(last), r, &scratch, 1, 1);
+  const int estimate = tangleCount(model, displayPositions(last), r, &scratch, 1, 3);
   ASSERT_GT(exact, 0);
   ASSERT_NE(estimate, exact) << "the check below must tell the estimate from the exact count";
   EXPECT_EQ(s.tangles, estimate);
   EXPECT_EQ(s.tangles_sim, tangleCount(model, last.position, r, &scratch, 1, 3));
   EXPECT_EQ(s.clump_distance_m,
-            clumpDistance(model, last.wet_position, last.saturation, search, &scratch, 1, 3));
+            clumpDistance(model, displayPositions(last), last.saturation, search, &scratch, 1, 3));
   EXPECT_NE(s.clump_distance_m,
-            clumpDistance(model, last.wet_position, last.saturation, search, &scratch, 1, 1));
+            clumpDistance(model, displayPositions(last), last.saturation, search, &scratch, 1, 1));
   EXPECT_GE(s.max_tangles, s.tangles);
 
   sampled.sample_strands = -1;
@@ -519,8 +519,8 @@ TEST(OfflineRun, JitterIsTheRmsSecondDifferenceForAnyThreadCount) {
   RunOptions options;
   options.on_frame = [&](int f, const HairState& state) {
     const Pose pose = headPose(scene.motion, f * scene.run.frame_s);
-    Vec3List x(state.wet_position.size());
-    for (size_t i = 0; i < x.size(); ++i) x[i] = pose.applyInverse(state.wet_position[i]);
+    Vec3List x(displayPositions(state).size());
+    for (size_t i = 0; i < x.size(); ++i) x[i] = pose.applyInverse(displayPositions(state)[i]);
     frames.push_back(x);
   };
   RunSummary one, two;
