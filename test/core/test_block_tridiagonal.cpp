@@ -163,16 +163,20 @@ TEST(BlockTridiagonal, SymmetricInverseReadsTheUpperTriangleAndInverts) {
 }
 
 TEST(BlockTridiagonal, DoubleMatchesADenseSolve) {
-  for (bool with_external : {false, true})
-    for (unsigned seed = 1; seed <= 5; ++seed) {
-      const StrandSystem s = randomSystem(32, seed, with_external);
-      const std::vector<Vec3> u = laneSolve<double>({s}, with_external)[0];
-      EXPECT_LT(backwardError(s, u), backwardErrorBound(s, kDoubleEpsilon)) << "seed " << seed;
-      // Forward: the backward bound times the condition number (2-5e3 here).
-      EXPECT_LT(relativeError(u, denseSolve(s)),
-                conditionNumber(s) * backwardErrorBound(s, kDoubleEpsilon))
-          << "seed " << seed;
-    }
+  // Strands of every parity and the shortest ones: the elimination meets in the middle unknown
+  // n / 2 from both ends, with no side, one side or both to eliminate into it.
+  for (int n : {2, 3, 4, 5, 6, 7, 32, 33})
+    for (bool with_external : {false, true})
+      for (unsigned seed = 1; seed <= 5; ++seed) {
+        const StrandSystem s = randomSystem(n, seed, with_external);
+        const std::vector<Vec3> u = laneSolve<double>({s}, with_external)[0];
+        EXPECT_LT(backwardError(s, u), backwardErrorBound(s, kDoubleEpsilon))
+            << "n " << n << " seed " << seed;
+        // Forward: the backward bound times the condition number (2-5e3 here).
+        EXPECT_LT(relativeError(u, denseSolve(s)),
+                  conditionNumber(s) * backwardErrorBound(s, kDoubleEpsilon))
+            << "n " << n << " seed " << seed;
+      }
 }
 
 TEST(BlockTridiagonal, EveryLaneSolvesItsOwnSystem) {
