@@ -205,10 +205,9 @@ void planBlockStages(Block<S>& blk) {
 /// strand's run of one array in order): positions relative to the origin with what rounding
 /// them into the lanes lost (the carry), velocities and saturations. Particle by particle in
 /// scalars (every lane's value of every array, 8 strands x 16 arrays read side by side) the
-/// gather and scatter
-/// cost 1.3x as much at 10,000 strands (AMD EPYC with AVX2, theta 1/240 s: 0.75-0.78 against
-/// 0.59-0.60 s per simulated second on one thread, 0.81-1.14 against 0.62-0.66 CPU s on two),
-/// with the same lanes to the bit.
+/// gather and scatter cost 1.3x as much at 10,000 strands (AMD EPYC with AVX2, theta 1/240 s:
+/// 0.75-0.78 against 0.59-0.60 s per simulated second on one thread, 0.81-1.14 against
+/// 0.62-0.66 CPU s on two), with the same lanes to the bit.
 template <typename S>
 void gatherStateByLane(Block<S>& blk) {
   BlockArrays<S>& a = blk.a;
