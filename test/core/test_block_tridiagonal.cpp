@@ -163,8 +163,8 @@ TEST(BlockTridiagonal, SymmetricInverseReadsTheUpperTriangleAndInverts) {
 }
 
 TEST(BlockTridiagonal, DoubleMatchesADenseSolve) {
-  // Strands of every parity and the shortest ones: the elimination meets in the middle unknown
-  // n / 2 from both ends, with no side, one side or both to eliminate into it.
+  // The shortest strands (one unknown, two, ...), both parities and the usual 32: the first
+  // unknown has no neighbour to eliminate and the last no edge past it, whatever n is.
   for (int n : {2, 3, 4, 5, 6, 7, 32, 33})
     for (bool with_external : {false, true})
       for (unsigned seed = 1; seed <= 5; ++seed) {
