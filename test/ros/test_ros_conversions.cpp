@@ -98,6 +98,32 @@ TEST(Conversions, StrandsMessageIsEveryValueRoundedToFloatOnAnyThreadCount) {
   }
 }
 
+TEST(Conversions, WithNothingDisplayedTheDisplayPositionsAreThePositions) {
+  // A display pass with nothing to display (dry hair, cohesion on) leaves wet_position unwritten
+  // (HairState::display_is_position): the message's wet_positions and the markers drawn with the
+  // display positions are the positions, not the stale list.
+  const HairModel model = smallModel();
+  HairState state = makeState(model, Pose(), Twist());
+  for (Vec3& p : state.position) p += Vec3(0.01, -0.02, 0.03);  // moved since wet_position
+  state.display_is_position = true;
+  std_msgs::Header h;
+  h.frame_id = "world";
+  Strands m;
+  stateToStrandsMsg(model, state, true, h, 1, 0, Pose(), &m);
+  ASSERT_EQ(m.wet_positions.size(), m.positions.size());
+  EXPECT_EQ(m.wet_positions, m.positions);
+  visualization_msgs::MarkerArray a;
+  stateToMarkerArray(model, state, true, h, 0.002, &a);
+  ASSERT_EQ(a.markers.size(), 1u);
+  EXPECT_DOUBLE_EQ(a.markers[0].points[0].x, state.position[0].x());
+  EXPECT_DOUBLE_EQ(a.markers[0].points[1].y, state.position[1].y());
+  // Displayed again: the display positions are read.
+  state.display_is_position = false;
+  stateToStrandsMsg(model, state, true, h, 2, 0, Pose(), &m);
+  EXPECT_FLOAT_EQ(m.wet_positions[0], static_cast<float>(state.wet_position[0].x()));
+  EXPECT_NE(m.wet_positions[0], m.positions[0]);
+}
+
 TEST(Conversions, StrandsMessageSaysWhichStrandsAreGuides) {
   // Every strand simulated: all are guides.
   Strands m;
