@@ -165,15 +165,13 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
   const double bound = 1.0 + 3.0 * config.stretch.strain_limit;
   const double* __restrict p = position->data();
   const double* __restrict rest = &model.rest_edge_m[begin];
-  // Squared lengths against squared bounds, counted without a branch per edge (a NaN length
-  // counts none: the finiteness check catches it); a square root per edge, waited on, cost 1.7 %
-  // of a one-thread step at 10,000 strands.
+  // Counted without a branch per edge; a square root per edge, waited on, cost 1.7 % of a
+  // one-thread step at 10,000 strands (edgeLongerThan compares squares).
   int too_long = 0;
   for (int i = 0; i < edges; ++i) {
     const double dx = p[3 * i + 3] - p[3 * i], dy = p[3 * i + 4] - p[3 * i + 1],
                  dz = p[3 * i + 5] - p[3 * i + 2];
-    const double longest = bound * rest[i];
-    too_long += dx * dx + dy * dy + dz * dz > longest * longest;
+    too_long += edgeLongerThan(dx, dy, dz, bound * rest[i]);
   }
   return too_long == 0;
 }
@@ -212,18 +210,20 @@ namespace {
 /// it vectorises: |x| <= max is false for infinities and NaN alike).
 uint64_t countNonfinite(const Vec3* v, int n) {
   const double* __restrict x = v->data();
-  constexpr double kLargest = std::numeric_limits<double>::max();
   uint64_t count = 0;
-  for (int k = 0; k < 3 * n; ++k) count += !(std::abs(x[k]) <= kLargest);
+  for (int k = 0; k < 3 * n; ++k) count += !detail::finiteValue(x[k]);
   return count;
 }
 
-/// True when the n positions and velocities are all finite; counts non-finite scalars.
-bool strandFinite(const Vec3* position, const Vec3* velocity, int n, uint64_t* nonfinite) {
+}  // namespace
+
+bool detail::strandFinite(const Vec3* position, const Vec3* velocity, int n, uint64_t* nonfinite) {
   const uint64_t count = countNonfinite(position, n) + countNonfinite(velocity, n);
   *nonfinite += count;
   return count == 0;
 }
+
+namespace {
 
 StrandFlags strandFlags(const HairModel& model, const SolverConfig& config,
                         const StepInputs& inputs, int s, const HairState& state) {
@@ -257,7 +257,7 @@ bool restoreStrand(const HairModel& model, const SolverConfig& config, const Pos
   Vec3* position = &state->position[begin];
   Vec3* velocity = &state->velocity[begin];
   uint64_t ignored = 0;
-  const bool start_healthy = strandFinite(position, velocity, n, &ignored) &&
+  const bool start_healthy = detail::strandFinite(position, velocity, n, &ignored) &&
                              detail::strandStrainOk(model, config, s, position);
   for (int i = 0; i < n; ++i) {
     if (start_healthy) {
@@ -274,17 +274,22 @@ bool restoreStrand(const HairModel& model, const SolverConfig& config, const Pos
 
 }  // namespace
 
+void detail::writeStrandState(const HairModel& model, int s, const Vec3* position,
+                              const Vec3* velocity, HairState* state) {
+  const int begin = model.strandBegin(s), n = model.strandSize(s);
+  std::memcpy(state->position[begin].data(), position->data(), n * sizeof(Vec3));
+  std::memcpy(state->velocity[begin].data(), velocity->data(), n * sizeof(Vec3));
+}
+
 void detail::commitStrandAfterStep(const HairModel& model, const SolverConfig& config,
                                    const Pose& from, const Pose& to, double elapsed_s, int s,
                                    const Vec3* position, const Vec3* velocity, HairState* state,
                                    StepStats* stats) {
   const int n = model.strandSize(s);
   uint64_t nonfinite = 0;
-  const bool finite = strandFinite(position, velocity, n, &nonfinite);
+  const bool finite = detail::strandFinite(position, velocity, n, &nonfinite);
   if (finite && detail::strandStrainOk(model, config, s, position)) {
-    const int begin = model.strandBegin(s);
-    std::memcpy(state->position[begin].data(), position->data(), n * sizeof(Vec3));
-    std::memcpy(state->velocity[begin].data(), velocity->data(), n * sizeof(Vec3));
+    writeStrandState(model, s, position, velocity, state);
     return;
   }
   stats->rest_shape_repairs += restoreStrand(model, config, from, to, elapsed_s, s, state);

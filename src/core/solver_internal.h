@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 
+#include "wet_curly_hair/core/lane_math.h"
 #include "wet_curly_hair/core/solver.h"
 #include "wet_curly_hair/core/state.h"
 
@@ -63,6 +65,24 @@ struct SolverPlan {
 };
 SolverPlan planStep(const HairModel& model, const SolverConfig& config, double h);
 
+/// The post-step check's two laws, for one strand in double (strandFinite, strandStrainOk) and
+/// for a block's lanes as they leave them (scatterStateByRow) alike. A value is finite when its
+/// magnitude is at most the largest double (a NaN compares false).
+template <typename S>
+WCH_INLINE LaneMask<S> finiteValue(const S& x) {
+  return vmax(x, -x) <= splat<S>(std::numeric_limits<double>::max());
+}
+/// An edge (dx, dy, dz) is longer than `longest` (squared lengths: no square root per edge; a
+/// NaN length is not, the finiteness check catches it).
+template <typename S>
+WCH_INLINE LaneMask<S> edgeLongerThan(const S& dx, const S& dy, const S& dz, const S& longest) {
+  return dx * dx + dy * dy + dz * dz > longest * longest;
+}
+
+/// True when the n positions and velocities are all finite (finiteValue); adds the count of
+/// non-finite scalars to `nonfinite`.
+bool strandFinite(const Vec3* position, const Vec3* velocity, int n, uint64_t* nonfinite);
+
 /// False when an edge of strand s, at the positions `position` (its n particles), is longer than
 /// 3x the strain limit allows: the post-step check (commitStrandAfterStep) then restores the
 /// strand and counts a strain repair.
@@ -86,6 +106,11 @@ bool strandStrainOk(const HairModel& model, const SolverConfig& config, int s,
 void commitStrandAfterStep(const HairModel& model, const SolverConfig& config, const Pose& from,
                            const Pose& to, double elapsed_s, int s, const Vec3* position,
                            const Vec3* velocity, HairState* state, StepStats* stats);
+
+/// Strand s's positions and velocities (its n particles) written to the state: what
+/// commitStrandAfterStep does with a healthy strand.
+void writeStrandState(const HairModel& model, int s, const Vec3* position, const Vec3* velocity,
+                      HairState* state);
 
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
 /// (the eq. 13 velocity factors), from the state's kept factors where their inputs are unchanged

@@ -364,14 +364,112 @@ void scatterLane(const Block<S>& blk, int l, Vec3* p, Vec3* v) {
   }
 }
 
+#if defined(__AVX512F__)
+/// Half `half` of a float16 row (lanes 0-7 or 8-15) in double.
+WCH_INLINE LaneDouble8 widenHalf(const LaneFloat16& row, int half) {
+  const __m512 f = reinterpret_cast<__m512>(row);
+  const __m256 part = half == 0 ? _mm512_castps512_ps256(f)
+                                : _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(f), 1));
+  return _mm512_cvtps_pd(part);
+}
+
+/// scatterLane on 16 float lanes, a particle's row at a time, eight lanes in double at once: the
+/// same subtractions and additions, and the output edge limit of limitEdgeLength on 8 lanes, root
+/// to tip (lane by lane it took each lane's 9 floats out of the vectors one at a time and limited
+/// each edge in scalars). On the way it forms the post-step check's verdict on what it outputs,
+/// by its laws (finiteValue and edgeLongerThan, as strandFinite and strandStrainOk do). The rows
+/// go to the block's free arrays in double (the implicit solve's, unused after the substeps),
+/// then each strand is written out from there: a healthy one straight into the state, the
+/// others into their scratch runs for commitStrandAfterStep. Returns the lanes written to the
+/// state (bit l), whose strands the caller need not commit: the same verdict and the same values,
+/// to the bit, as scatterLane with the check (StrandBlock.TheRowScatter... test).
+inline uint32_t scatterStateByRow(Block<LaneFloat16>& blk) {
+  typedef LaneDouble8 D;
+  const BlockArrays<LaneFloat16>& a = blk.a;
+  const int n = blk.n;
+  // Row i's lanes in double, axis by axis: 2 halves of 8 per axis; positions in the block
+  // matrices' room (9 vectors of 16 floats per particle), velocities in the pivots'.
+  D* out_p = reinterpret_cast<D*>(a.block);
+  D* out_v = reinterpret_cast<D*>(a.pivot_inverse);
+  static_assert(sizeof(M33<LaneFloat16>) >= 6 * sizeof(D), "a row fits a particle's matrix");
+  const double* rest = blk.model.rest_edge_m.data();
+  const D stretch_bound = splat<D>(1.0 + blk.config.stretch.strain_limit);
+  const D check_bound = splat<D>(1.0 + 3.0 * blk.config.stretch.strain_limit);
+  const D origin[3] = {splat<D>(blk.origin.x()), splat<D>(blk.origin.y()),
+                       splat<D>(blk.origin.z())};
+  // The two halves of the row (lanes 0-7 and 8-15) side by side: two independent chains of the
+  // limit's square root and division from root to tip.
+  __m256i first_edge[2];
+  for (int half = 0; half < 2; ++half)
+    first_edge[half] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(blk.begin + 8 * half));
+  LaneMask<D> ok[2] = {LaneMask<D>{} - 1, LaneMask<D>{} - 1};
+  V3<D> previous[2];
+  for (int i = 0; i < n; ++i) {
+    const LaneFloat16* p_rows[3] = {&a.p[i].x, &a.p[i].y, &a.p[i].z};
+    const LaneFloat16* carry_rows[3] = {&a.p_carry[i].x, &a.p_carry[i].y, &a.p_carry[i].z};
+    const LaneFloat16* v_rows[3] = {&a.v[i].x, &a.v[i].y, &a.v[i].z};
+    for (int half = 0; half < 2; ++half) {
+      D p[3], v[3];
+      for (int axis = 0; axis < 3; ++axis) {
+        p[axis] =
+            (widenHalf(*p_rows[axis], half) - widenHalf(*carry_rows[axis], half)) + origin[axis];
+        v[axis] = widenHalf(*v_rows[axis], half);
+      }
+      V3<D> here{p[0], p[1], p[2]};
+      if (i > 0) {
+        const D rest_edge = _mm512_i32gather_pd(
+            _mm256_add_epi32(first_edge[half], _mm256_set1_epi32(i - 1)), rest, 8);
+        // The limit moves nothing where every lane's edge is clearly within it (its square
+        // root and division, a chain from root to tip, are then skipped).
+        const D longest = stretch_bound * rest_edge;
+        const V3<D> stretched = here - previous[half];
+        if (anyLane(!(dot(stretched, stretched) < (longest * longest) * (1.0 - 1e-12))))
+          here += limitEdgeLength(previous[half], here, longest);
+        const V3<D> e = here - previous[half];
+        ok[half] &= ~edgeLongerThan(e.x, e.y, e.z, check_bound * rest_edge);
+      }
+      const D position[3] = {here.x, here.y, here.z};
+      for (int axis = 0; axis < 3; ++axis) {
+        ok[half] &= finiteValue(position[axis]) & finiteValue(v[axis]);
+        out_p[(3 * i + axis) * 2 + half] = position[axis];
+        out_v[(3 * i + axis) * 2 + half] = v[axis];
+      }
+      previous[half] = here;
+    }
+  }
+  // Each strand out of the rows, to the state or to its scratch run.
+  const double* row_p = reinterpret_cast<const double*>(out_p);
+  const double* row_v = reinterpret_cast<const double*>(out_v);
+  StrandScratch& scr = *blk.scratch;
+  uint32_t written = 0;
+  for (int l = 0; l < blk.active; ++l) {
+    const bool healthy = ok[l / 8][l % 8] != 0;
+    Vec3* to_p = healthy ? &blk.state->position[blk.begin[l]] : &scr.step_position[size_t(l) * n];
+    Vec3* to_v = healthy ? &blk.state->velocity[blk.begin[l]] : &scr.step_velocity[size_t(l) * n];
+    for (int i = 0; i < n; ++i) {
+      const int at = 48 * i + l;  // row i, axis 0, lane l; axes 16 apart
+      to_p[i] = Vec3(row_p[at], row_p[at + 16], row_p[at + 32]);
+      to_v[i] = Vec3(row_v[at], row_v[at + 16], row_v[at + 32]);
+    }
+    written |= uint32_t(healthy) << l;
+  }
+  return written;
+}
+#endif
+
 /// The lanes into the scratch (StrandScratch::step_position), strand after strand, where the
-/// post-step check reads them before they reach the state (commitStrandAfterStep).
+/// post-step check reads them before they reach the state (commitStrandAfterStep). Returns the
+/// lanes whose strands it already checked and wrote to the state (bit l; none lane by lane).
 template <typename S>
-void scatterBlock(Block<S>& blk) {
+uint32_t scatterBlock(Block<S>& blk) {
+#if defined(__AVX512F__)
+  if constexpr (std::is_same<S, LaneFloat16>::value) return scatterStateByRow(blk);
+#endif
   StrandScratch& scr = *blk.scratch;
   for (int l = 0; l < blk.active; ++l)
     scatterLane(blk, l, &scr.step_position[size_t(l) * blk.n],
                 &scr.step_velocity[size_t(l) * blk.n]);
+  return 0;
 }
 
 // ------------------------------------------------------------------ the stages of a substep
@@ -1011,7 +1109,7 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
   for (int k = k_begin; k < k_end; ++k)
     substepBlock(blk, substepMotion(inputs, double(k) / nsub, double(k + 1) / nsub, h));
   laps.skip();  // the substeps charged their own stages
-  scatterBlock(blk);
+  const uint32_t written = scatterBlock(blk);
   laps.lap(kStageLanes, 0);
   // The post-step check, the strands in cache. The state still holds what the block started
   // from, at the start of substep k_begin: each strand goes there when healthy, else is restored
@@ -1025,10 +1123,12 @@ double stepStrandBlock(const HairModel& model, const SolverConfig& config, const
           ? inputs.head_end
           : substepMotion(inputs, double(k_end - 1) / nsub, double(k_end) / nsub, h).pose1;
   const StrandScratch& scr = *blk.scratch;
-  for (int l = 0; l < active; ++l)
+  for (int l = 0; l < active; ++l) {
+    if (written >> l & 1u) continue;
     commitStrandAfterStep(model, config, from, to, (k_end - k_begin) * h, blk.strand[l],
                           &scr.step_position[size_t(l) * blk.n],
                           &scr.step_velocity[size_t(l) * blk.n], state, stats);
+  }
   laps.lap(kStageRepair, uint64_t(blk.n) * active);
   double largest = laneValue(blk.max_strain, 0);
   for (int l = 1; l < active; ++l) largest = std::max(largest, laneValue(blk.max_strain, l));

@@ -150,11 +150,14 @@ void expectTheCarryKeepsDoublePositions() {
   }
   // Float lanes: every axis of some particle lost something to rounding.
   EXPECT_GT(largest_carry, 1e-10);
-  scatterBlock(blk);  // into the scratch, where the post-step check reads it
-  const Vec3List& out = scene.state.scratch[0].step_position;
-  for (int l = 0; l < width; ++l)
-    for (int i = 0; i < blk.n; ++i)
-      EXPECT_LT((out[size_t(l) * blk.n + i] - before[blk.begin[l] + i]).norm(), 1e-14);
+  // Into the scratch, where the post-step check reads it, or, for the strands the scatter
+  // checked itself (written), into the state.
+  const uint32_t written = scatterBlock(blk);
+  for (int l = 0; l < width; ++l) {
+    const Vec3* out = written >> l & 1u ? &scene.state.position[blk.begin[l]]
+                                        : &scene.state.scratch[0].step_position[size_t(l) * blk.n];
+    for (int i = 0; i < blk.n; ++i) EXPECT_LT((out[i] - before[blk.begin[l] + i]).norm(), 1e-14);
+  }
 }
 
 TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat16Lanes) {
@@ -218,6 +221,82 @@ TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
         largest_carry = std::max(largest_carry, std::abs(lane(blk.a.p_carry[i], l).x()));
     EXPECT_GT(largest_carry, 1e-10);
   }
+}
+
+/// The row scatter of 16 float lanes (scatterStateByRow, what scatterBlock runs on them) outputs
+/// what the lane-by-lane scatter does, to the bit, output edge limit included, and its verdict on
+/// each strand is the post-step check's (strandFinite and strandStrainOk on those values): a
+/// healthy strand goes to the state, any other to its scratch run, the state left as it was. On
+/// 20 strands off the world's origin, shaken far enough that the limit shortens edges, for the
+/// first block and the last, partial one; a lane given a non-finite velocity, and one a
+/// non-finite position, fail the check, and no other does.
+TEST(StrandBlock, TheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdictToTheBit) {
+  SolverConfig config;
+  GroomConfig g;
+  g.strands = 20;
+  g.particles = 24;
+  HairModel model;
+  std::string why;
+  ASSERT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(),
+                         config, &model, &why))
+      << why;
+  HairState state = makeState(model, Pose(), Twist());
+  StepInputs inputs;
+  inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> jitter(-3e-3, 3e-3), speed(-3.0, 3.0);
+  for (size_t k = 0; k < state.position.size(); ++k) {
+    state.position[k] +=
+        inputs.head_start.translation + Vec3(jitter(rng), jitter(rng), jitter(rng));
+    state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
+  }
+  const SolverPlan plan = planStep(model, config, 1e-3);
+  StepStats stats;
+  StrandFlags flags[kMaxStrandLanes];
+  auto same_bits = [](const Vec3& a, const Vec3& b) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const double x = a[axis], y = b[axis];
+      if (!(std::isnan(x) && std::isnan(y)) && std::memcmp(&x, &y, sizeof x) != 0) return false;
+    }
+    return true;
+  };
+  int limited = 0;
+  for (int first : {0, 16}) {
+    const int active = std::min(16, model.strandCount() - first);
+    Block<LaneFloat16> blk(model, config, inputs, plan, &state, &state.scratch[0], &stats, 1e-3);
+    initBlock(&blk, first, active, flags);
+    const int n = blk.n;
+    if (first == 0) {
+      setLaneValue(&blk.a.v[5].y, 3, std::numeric_limits<double>::quiet_NaN());
+      setLaneValue(&blk.a.p[n - 1].z, 9, std::numeric_limits<double>::infinity());
+    }
+    // The lane-by-lane scatter first (it reads the lanes only), into vectors of our own.
+    std::vector<Vec3List> lane_p(active, Vec3List(n)), lane_v(active, Vec3List(n));
+    for (int l = 0; l < active; ++l) scatterLane(blk, l, lane_p[l].data(), lane_v[l].data());
+    const Vec3List state_before = state.position, velocity_before = state.velocity;
+    const uint32_t written = scatterStateByRow(blk);
+    for (int l = 0; l < active; ++l) {
+      uint64_t nonfinite = 0;
+      const bool healthy = strandFinite(lane_p[l].data(), lane_v[l].data(), n, &nonfinite) &&
+                           strandStrainOk(model, config, blk.strand[l], lane_p[l].data());
+      EXPECT_EQ(healthy, (written >> l & 1u) != 0) << "strand " << first + l;
+      EXPECT_EQ(healthy, !(first == 0 && (l == 3 || l == 9))) << "strand " << first + l;
+      const int begin = blk.begin[l];
+      const Vec3* p = healthy ? &state.position[begin] : &state.scratch[0].step_position[l * n];
+      const Vec3* v = healthy ? &state.velocity[begin] : &state.scratch[0].step_velocity[l * n];
+      for (int i = 0; i < n; ++i) {
+        const Vec3 unlimited = (lane(blk.a.p[i], l) - lane(blk.a.p_carry[i], l)) + blk.origin;
+        limited += (lane_p[l][i] - unlimited).norm() > 1e-9;
+        EXPECT_TRUE(same_bits(p[i], lane_p[l][i])) << "strand " << first + l << " particle " << i;
+        EXPECT_TRUE(same_bits(v[i], lane_v[l][i])) << "strand " << first + l << " particle " << i;
+        if (!healthy) {
+          EXPECT_EQ(state.position[begin + i], state_before[begin + i]);
+          EXPECT_EQ(state.velocity[begin + i], velocity_before[begin + i]);
+        }
+      }
+    }
+  }
+  EXPECT_GT(limited, 0) << "the shake must make the output edge limit act";
 }
 #endif
 
