@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "wet_curly_hair/io/scene_setup.h"
+#include "wet_curly_hair/io/stage_clock.h"
 #include "wet_curly_hair/ros/conversions.h"
 
 namespace wet_curly_hair {
@@ -26,10 +27,6 @@ double wallSince(const std::chrono::steady_clock::time_point& t0) {
 }
 
 using Clock = std::chrono::steady_clock;
-
-double steadySeconds() {
-  return std::chrono::duration<double>(Clock::now().time_since_epoch()).count();
-}
 
 int64_t floorDiv(int64_t a, int64_t b) { return a / b - ((a % b != 0) && ((a < 0) != (b < 0))); }
 
@@ -95,6 +92,7 @@ void WetCurlyHairNode::init() {
   water_active_ = scene_.waterActive();
   resetHairLocked(Pose(), "start-up");
   reset_count_ = 0;
+  io::stageClockSeconds();  // its rate measured here, not in the first step
 
   builder_ = std::make_unique<ObstacleFieldBuilder>(
       [this](const ObstacleFieldBuilder::Result& r) { onFieldBuilt(r); });
@@ -347,7 +345,7 @@ void WetCurlyHairNode::advanceFrameLocked(int64_t t_end_ns, const PoseLookup& lo
   in.head_start = head_pose_;
   in.head_end = end;
   in.obstacles = obstacles_.empty() ? nullptr : &obstacles_;
-  in.clock = &steadySeconds;  // stage timing for ~status (the core reads no clock itself)
+  in.clock = &io::stageClockSeconds;  // stage timing for ~status (the core reads no clock)
   const auto t0 = Clock::now();
   step(model_, scene_.solver, in, frame_s_, &state_, &last_stats_);
   tick_step_s_ += wallSince(t0);

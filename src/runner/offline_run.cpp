@@ -21,6 +21,7 @@
 #include "wet_curly_hair/io/json.h"
 #include "wet_curly_hair/io/octomap_sdf.h"
 #include "wet_curly_hair/io/scene_setup.h"
+#include "wet_curly_hair/io/stage_clock.h"
 
 namespace wet_curly_hair {
 namespace io {
@@ -796,6 +797,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     return true;
   };
   if (!frameDone(0, headPose(scene.motion, 0.0))) return false;
+  if (options.stage_timing) stageClockSeconds();  // its rate measured before the first step
   StepClock clock(options.rtf_window_s, frame, frames);
   size_t next_event = 0;
   for (long f = 0; f < frames; ++f) {
@@ -812,7 +814,7 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
     }
     if (s.water) stepSceneWater(scene, f * frame, frame, &model, &state, &s);
     in.obstacles = obstacles.empty() ? nullptr : &obstacles;
-    in.clock = options.stage_timing ? &steadySeconds : nullptr;
+    in.clock = options.stage_timing ? &stageClockSeconds : nullptr;
     StepStats stats;
     const auto t0 = std::chrono::steady_clock::now();
     step(model, scene.solver, in, frame, &state, &stats);
