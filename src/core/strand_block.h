@@ -402,6 +402,13 @@ inline uint32_t scatterStateByRow(Block<LaneFloat16>& blk) {
   __m256i first_edge[2];
   for (int half = 0; half < 2; ++half)
     first_edge[half] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(blk.begin + 8 * half));
+  // The lanes' rest lengths, edge by edge, gathered ahead of the chain that reads them.
+  D* rest_rows = reinterpret_cast<D*>(a.rhs);
+  static_assert(sizeof(V3<LaneFloat16>) >= 2 * sizeof(D), "an edge's rows fit a particle's vector");
+  for (int i = 0; i + 1 < n; ++i)
+    for (int half = 0; half < 2; ++half)
+      rest_rows[2 * i + half] =
+          _mm512_i32gather_pd(_mm256_add_epi32(first_edge[half], _mm256_set1_epi32(i)), rest, 8);
   LaneMask<D> ok[2] = {LaneMask<D>{} - 1, LaneMask<D>{} - 1};
   V3<D> previous[2];
   for (int i = 0; i < n; ++i) {
@@ -417,8 +424,7 @@ inline uint32_t scatterStateByRow(Block<LaneFloat16>& blk) {
       }
       V3<D> here{p[0], p[1], p[2]};
       if (i > 0) {
-        const D rest_edge = _mm512_i32gather_pd(
-            _mm256_add_epi32(first_edge[half], _mm256_set1_epi32(i - 1)), rest, 8);
+        const D rest_edge = rest_rows[2 * (i - 1) + half];
         // The limit moves nothing where every lane's edge is clearly within it (its square
         // root and division, a chain from root to tip, are then skipped).
         const D longest = stretch_bound * rest_edge;
