@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 #include <utility>
 
@@ -1361,16 +1362,39 @@ void boundingBox(const Vec3List& p, int threads, Vec3* lo, Vec3* hi) {
   parallelRegion(std::min(threads, kMaxSolverThreads), [&](int64_t t, int64_t team) {
     if (t == 0) shares = team;
     const int64_t begin = n * t / team, end = n * (t + 1) / team;
+    // The share's coordinates as one run of doubles, 8 particles (24 coordinates) at a time:
+    // coordinate j of every chunk is the same axis (j % 3), so 24 running minima and maxima
+    // vectorise, and non-finite values are counted without a branch (|x| <= max is false for
+    // them). Particle by particle in Eigen's 3-vectors it took 3.3 ns a particle.
+    constexpr int kChunk = 24;
+    double lo_run[kChunk], hi_run[kChunk];
+    std::fill(lo_run, lo_run + kChunk, INFINITY);
+    std::fill(hi_run, hi_run + kChunk, -INFINITY);
+    const double* __restrict x = p.data()->data() + 3 * begin;
+    const int64_t coordinates = 3 * (end - begin), whole = coordinates / kChunk * kChunk;
+    int64_t nonfinite = 0;
+    for (int64_t k = 0; k < whole; k += kChunk)
+      for (int j = 0; j < kChunk; ++j) {
+        const double v = x[k + j];
+        lo_run[j] = v < lo_run[j] ? v : lo_run[j];
+        hi_run[j] = v > hi_run[j] ? v : hi_run[j];
+        nonfinite += !(std::abs(v) <= std::numeric_limits<double>::max());
+      }
+    for (int64_t k = whole; k < coordinates; ++k) {
+      const double v = x[k];
+      const int j = static_cast<int>(k - whole);
+      lo_run[j] = std::min(lo_run[j], v);
+      hi_run[j] = std::max(hi_run[j], v);
+      nonfinite += !(std::abs(v) <= std::numeric_limits<double>::max());
+    }
     Vec3 a = Vec3::Constant(INFINITY), b = Vec3::Constant(-INFINITY);
-    bool finite = true;
-    for (int64_t i = begin; i < end; ++i) {
-      a = a.cwiseMin(p[i]);
-      b = b.cwiseMax(p[i]);
-      finite = finite && std::isfinite(p[i].x() + p[i].y() + p[i].z());
+    for (int j = 0; j < kChunk; ++j) {
+      a[j % 3] = std::min(a[j % 3], lo_run[j]);
+      b[j % 3] = std::max(b[j % 3], hi_run[j]);
     }
     share_lo[t] = a;
     share_hi[t] = b;
-    share_finite[t] = finite;
+    share_finite[t] = nonfinite == 0;
   });
   *lo = share_lo[0];
   *hi = share_hi[0];

@@ -5,7 +5,7 @@
 
 #if defined(__x86_64__)
 #include <cpuid.h>
-#include <x86intrin.h>
+#include <immintrin.h>
 #endif
 
 namespace wet_curly_hair {

@@ -195,9 +195,10 @@ struct WetScene {
   HairModel model;
   HairState state;
   SolverConfig solver;
-  explicit WetScene(int strands, int cells_per_radius = 4) {
+  explicit WetScene(int strands, int cells_per_radius = 4, int particles = 0) {
     io::SceneConfig scene;
     scene.groom.strands = strands;
+    if (particles > 0) scene.groom.particles = particles;
     scene.solver.integrator.method = "theta";
     scene.solver.integrator.substep_s = 0.0333;
     scene.solver.cohesion.evaluation = "grid";
@@ -696,14 +697,19 @@ TEST(CohesionGrid, IsTranslationInvariantAndThreadIndependent) {
 
 // The solver repairs non-finite strands before the display pass; a caller of the core API may
 // not. A NaN coordinate anywhere (not only at the first particle, whose box once carried it)
-// refuses the lattice instead of indexing it.
+// refuses the lattice instead of indexing it; so does an infinite one. The box is taken 8
+// particles at a time: the last particle, past the last 8 of a share of 40 x 31 / 2 particles,
+// is checked too.
 TEST(CohesionGrid, ANonFinitePositionRefusesTheLattice) {
-  for (int bad : {0, 37}) {
-    WetScene a(40);
-    HairState grid = a.state;
-    grid.position[bad].y() = NAN;
-    computeDisplayCohesion(a.model, a.solver.cohesion, &grid, 2);
-    EXPECT_EQ(grid.warnings.cohesion_grid_fallbacks, 1u) << "NaN at particle " << bad;
+  for (double value : {double(NAN), double(INFINITY), -double(INFINITY)}) {
+    for (int bad : {0, 37, -1}) {
+      WetScene a(40, 4, 31);
+      HairState grid = a.state;
+      const int at = bad >= 0 ? bad : a.model.particleCount() - 1;
+      grid.position[at].y() = value;
+      computeDisplayCohesion(a.model, a.solver.cohesion, &grid, 2);
+      EXPECT_EQ(grid.warnings.cohesion_grid_fallbacks, 1u) << value << " at particle " << at;
+    }
   }
 }
 

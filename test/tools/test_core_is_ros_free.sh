@@ -3,8 +3,9 @@
 # #include under include/wet_curly_hair/{core,io,runner,viewer} and src/{core,io,runner,viewer}
 # must come from an allowlist of include roots, so that a ROS header, or any other new
 # dependency, fails here with the offending line.
-#   core: standard C and C++ headers, Eigen, OpenMP (omp.h), x86 intrinsics (immintrin.h),
-#         dynamicEDT3D, the package's own core headers, and files beside the including file.
+#   core: standard C and C++ headers, Eigen, OpenMP (omp.h), the compiler's x86 headers
+#         (immintrin.h, cpuid.h), dynamicEDT3D, the package's own core headers, and files
+#         beside the including file.
 #   io:   all of the above, plus yaml-cpp, OctoMap, POSIX file-system headers and the package's
 #         own io headers.
 #   runner: all of io's, plus the package's own runner headers.
@@ -47,7 +48,7 @@ def allowed(layer, path, bracket, name):
         return "standard"
     if name.startswith(("Eigen/", "unsupported/Eigen/")):
         return "Eigen"
-    if name in ("omp.h", "immintrin.h"):
+    if name in ("omp.h", "immintrin.h", "cpuid.h"):
         return "OpenMP / intrinsics"
     if name.startswith("dynamicEDT3D/"):
         return "dynamicEDT3D"
