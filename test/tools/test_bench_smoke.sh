@@ -191,6 +191,28 @@ check "targets_10k.py prints the ratio of the two targets' medians" "[ '$ratio_c
 targets_rc=$?
 check "targets_10k.py refuses --runs 0 (got $targets_rc)" \
   "[ $targets_rc -eq 2 ] && grep -q 'at least 1' $out/targets_err"
+# Two builds taking turns (bench/paired_runs.py), here the same build on both sides: every pair
+# printed and written, the median of the pairs' ratios as printed from the ratios printed, and a
+# runner that refuses its arguments named with what it said.
+/usr/bin/python3 "$here/bench/paired_runs.py" --baseline "$build" --build "$build" --pairs 3 \
+  --out "$out/paired" -- --strands 24 --seconds 0.05 --threads 1 --no-measure \
+  > "$out/paired.txt" 2>&1
+paired_rc=$?
+check "paired_runs.py runs (got $paired_rc; $(tail -c 300 "$out/paired.txt"))" "[ $paired_rc -eq 0 ]"
+check "paired_runs.py prints both sides and writes every run" \
+  "grep -q '^baseline RTF median' $out/paired.txt && grep -q '^build    RTF median' $out/paired.txt && [ \$(grep -c ',baseline,' $out/paired/paired_runs.csv) -eq 3 ] && [ \$(grep -c ',build,' $out/paired/paired_runs.csv) -eq 3 ]"
+check "paired_runs.py prints the median of the pairs' ratios" "/usr/bin/python3 - <<PY
+import re, statistics, sys
+line = [l for l in open('$out/paired.txt') if l.startswith('build / baseline')][0]
+ratios = [float(x) for x in re.search(r'per pair: ([0-9. ]+);', line).group(1).split()]
+median = float(re.search(r'median ([0-9.]+)x', line).group(1))
+sys.exit(0 if len(ratios) == 3 and abs(statistics.median(ratios) - median) < 1e-3 else 1)
+PY"
+/usr/bin/python3 "$here/bench/paired_runs.py" --baseline "$build" --build "$build" --pairs 1 -- \
+  --strands -3 > /dev/null 2> "$out/paired_err"
+paired_rc=$?
+check "paired_runs.py names a runner that refused its arguments (got $paired_rc)" \
+  "[ $paired_rc -eq 2 ] && grep -q \"runner failed: .*strands\" $out/paired_err"
 # --out: a missing directory is made with its parents; a file in the way is refused by name,
 # before any run, instead of every table and chart being lost.
 followers=$(tool_path bench_followers "$build") || exit 1
