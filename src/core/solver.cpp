@@ -274,13 +274,6 @@ bool restoreStrand(const HairModel& model, const SolverConfig& config, const Pos
 
 }  // namespace
 
-void detail::writeStrandState(const HairModel& model, int s, const Vec3* position,
-                              const Vec3* velocity, HairState* state) {
-  const int begin = model.strandBegin(s), n = model.strandSize(s);
-  std::memcpy(state->position[begin].data(), position->data(), n * sizeof(Vec3));
-  std::memcpy(state->velocity[begin].data(), velocity->data(), n * sizeof(Vec3));
-}
-
 void detail::commitStrandAfterStep(const HairModel& model, const SolverConfig& config,
                                    const Pose& from, const Pose& to, double elapsed_s, int s,
                                    const Vec3* position, const Vec3* velocity, HairState* state,
@@ -289,7 +282,9 @@ void detail::commitStrandAfterStep(const HairModel& model, const SolverConfig& c
   uint64_t nonfinite = 0;
   const bool finite = detail::strandFinite(position, velocity, n, &nonfinite);
   if (finite && detail::strandStrainOk(model, config, s, position)) {
-    writeStrandState(model, s, position, velocity, state);
+    const int begin = model.strandBegin(s);
+    std::memcpy(state->position[begin].data(), position->data(), n * sizeof(Vec3));
+    std::memcpy(state->velocity[begin].data(), velocity->data(), n * sizeof(Vec3));
     return;
   }
   stats->rest_shape_repairs += restoreStrand(model, config, from, to, elapsed_s, s, state);

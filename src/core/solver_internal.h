@@ -107,11 +107,6 @@ void commitStrandAfterStep(const HairModel& model, const SolverConfig& config, c
                            const Pose& to, double elapsed_s, int s, const Vec3* position,
                            const Vec3* velocity, HairState* state, StepStats* stats);
 
-/// Strand s's positions and velocities (its n particles) written to the state: what
-/// commitStrandAfterStep does with a healthy strand.
-void writeStrandState(const HairModel& model, int s, const Vec3* position, const Vec3* velocity,
-                      HairState* state);
-
 /// Fills the per-strand quantities that stay constant through a step's substeps into `scratch`
 /// (the eq. 13 velocity factors), from the state's kept factors where their inputs are unchanged
 /// (HairState::stiffness_factor).

@@ -168,32 +168,49 @@ TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
 }
 
 #if defined(__AVX512F__)
+/// 20 strands of 24 particles moved off the world's origin (to the step's origin) and shaken by
+/// up to jitter_m per coordinate, with velocities of every size up to 3 m/s per axis and, with
+/// random_saturation, saturations anywhere in [0, 1]: what the row gather and scatter tests feed
+/// their two blocks (the first, and the last, partial one).
+struct ShakenStrands {
+  SolverConfig config;
+  HairModel model;
+  HairState state;
+  StepInputs inputs;
+  ShakenStrands(unsigned seed, double jitter_m, bool random_saturation) {
+    GroomConfig g;
+    g.strands = 20;
+    g.particles = 24;
+    std::string why;
+    EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m,
+                           HeadShape(), config, &model, &why))
+        << why;
+    state = makeState(model, Pose(), Twist());
+    inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> jitter(-jitter_m, jitter_m), speed(-3.0, 3.0),
+        wet(0.0, 1.0);
+    for (size_t k = 0; k < state.position.size(); ++k) {
+      state.position[k] +=
+          inputs.head_start.translation + Vec3(jitter(rng), jitter(rng), jitter(rng));
+      state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
+      if (random_saturation) state.saturation[k] = wet(rng);
+    }
+  }
+};
+
 /// The row gather of 16 float lanes (gatherStateByRow, what gatherArrays runs on them) stores
 /// what the lane-by-lane gather does, to the bit: positions relative to the origin and their
 /// carry, velocities and saturations, on 20 strands moved off the world's origin and shaken,
 /// with velocities and saturations of every size, for the first block and the last, partial one
 /// (its padding lanes repeat the last strand).
 TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
-  SolverConfig config;
-  GroomConfig g;
-  g.strands = 20;
-  g.particles = 24;
-  HairModel model;
-  std::string why;
-  ASSERT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(),
-                         config, &model, &why))
-      << why;
-  HairState state = makeState(model, Pose(), Twist());
-  StepInputs inputs;
-  inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
-  std::mt19937 rng(11);
-  std::uniform_real_distribution<double> jitter(-2e-3, 2e-3), speed(-3.0, 3.0), wet(0.0, 1.0);
-  for (size_t k = 0; k < state.position.size(); ++k) {
-    state.position[k] +=
-        inputs.head_start.translation + Vec3(jitter(rng), jitter(rng), jitter(rng));
-    state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
-    state.saturation[k] = wet(rng);
-  }
+  ShakenStrands scene(11, 2e-3, true);
+  ASSERT_EQ(scene.model.strandCount(), 20) << "the groom must build";
+  const SolverConfig& config = scene.config;
+  const HairModel& model = scene.model;
+  HairState& state = scene.state;
+  const StepInputs& inputs = scene.inputs;
   const SolverPlan plan = planStep(model, config, 1e-3);
   StepStats stats;
   StrandFlags flags[kMaxStrandLanes];
@@ -231,25 +248,12 @@ TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
 /// first block and the last, partial one; a lane given a non-finite velocity, and one a
 /// non-finite position, fail the check, and no other does.
 TEST(StrandBlock, TheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdictToTheBit) {
-  SolverConfig config;
-  GroomConfig g;
-  g.strands = 20;
-  g.particles = 24;
-  HairModel model;
-  std::string why;
-  ASSERT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m, HeadShape(),
-                         config, &model, &why))
-      << why;
-  HairState state = makeState(model, Pose(), Twist());
-  StepInputs inputs;
-  inputs.head_start.translation = Vec3(0.37, -1.21, 0.83);
-  std::mt19937 rng(13);
-  std::uniform_real_distribution<double> jitter(-3e-3, 3e-3), speed(-3.0, 3.0);
-  for (size_t k = 0; k < state.position.size(); ++k) {
-    state.position[k] +=
-        inputs.head_start.translation + Vec3(jitter(rng), jitter(rng), jitter(rng));
-    state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
-  }
+  ShakenStrands scene(13, 3e-3, false);
+  ASSERT_EQ(scene.model.strandCount(), 20) << "the groom must build";
+  const SolverConfig& config = scene.config;
+  const HairModel& model = scene.model;
+  HairState& state = scene.state;
+  const StepInputs& inputs = scene.inputs;
   const SolverPlan plan = planStep(model, config, 1e-3);
   StepStats stats;
   StrandFlags flags[kMaxStrandLanes];
