@@ -39,6 +39,22 @@ WCH_INLINE void subtractSymmetricProduct(const M33<S>& a, const M33<S>& b, M33<S
       from->m[r][c] -= a.m[r][0] * b.m[0][c] + a.m[r][1] * b.m[1][c] + a.m[r][2] * b.m[2][c];
 }
 
+/// The upper triangle of `from` into `to`'s, element by element: a loop over the triangle's
+/// ragged rows compiled to a string copy (rep movsq) that took a fifth of the elimination.
+template <typename S>
+WCH_INLINE void copyUpperTriangle(const M33<S>& from, M33<S>* to) {
+  to->m[0][0] = from.m[0][0], to->m[0][1] = from.m[0][1], to->m[0][2] = from.m[0][2];
+  to->m[1][1] = from.m[1][1], to->m[1][2] = from.m[1][2];
+  to->m[2][2] = from.m[2][2];
+}
+/// `to`'s upper triangle += `from`'s.
+template <typename S>
+WCH_INLINE void addUpperTriangle(const M33<S>& from, M33<S>* to) {
+  to->m[0][0] += from.m[0][0], to->m[0][1] += from.m[0][1], to->m[0][2] += from.m[0][2];
+  to->m[1][1] += from.m[1][1], to->m[1][2] += from.m[1][2];
+  to->m[2][2] += from.m[2][2];
+}
+
 /// Block Thomas for the velocities u_1 .. u_{n-1} of a strand of n particles, u_0 prescribed:
 ///   (m_i I + G_{i-1} + G_i + E_i) u_i - G_{i-1} u_{i-1} - G_i u_{i+1} = rhs_i,
 /// G_i the symmetric coupling block of edge i (i = 0 .. n-2; none past the tip), E_i a particle's
@@ -52,12 +68,9 @@ void solveSymmetricBlockTridiagonal(int n, const S* m, const M33<S>* block, cons
                                     V3<S>* rhs, M33<S>* pivot_inverse, V3<S>* u) {
   for (int i = 1; i < n; ++i) {
     M33<S> pivot;
-    for (int r = 0; r < 3; ++r)
-      for (int c = r; c < 3; ++c) {
-        pivot.m[r][c] = block[i - 1].m[r][c];
-        if (i < n - 1) pivot.m[r][c] += block[i].m[r][c];
-        if (external) pivot.m[r][c] += external[i].m[r][c];
-      }
+    copyUpperTriangle(block[i - 1], &pivot);
+    if (i < n - 1) addUpperTriangle(block[i], &pivot);
+    if (external) addUpperTriangle(external[i], &pivot);
     for (int r = 0; r < 3; ++r) pivot.m[r][r] += m[i];
     if (i > 1) {
       // With W = P_{i-1}^-1 G_{i-1}: P_i -= G_{i-1} W (symmetric), rhs_i += W^T rhs_{i-1}.
