@@ -944,7 +944,20 @@ uint64_t collideObstacleParticles(const ObstacleCollisionConfig& config, const b
 template <typename S>
 void limitStrainEdges(const S* rest, double strain_limit, bool inelastic, double h, V3<S>* p,
                       V3<S>* v, int n, S* max_strain, uint64_t* projected) {
-  for (int i = 0; i + 1 < n; ++i) {
+  // The edges before the first row with a lane near or past the limit cannot move: their strains
+  // are taken without the root-to-tip chain (each edge's square root and division waits on the
+  // last edge's projection there), the same values in the same order. Clear of the limit: the
+  // squared length below the squared limit less a margin far above float's rounding, where
+  // clampEdgeLength's own test (on the rounded square root) is within too.
+  const S clear = splat<S>((1.0 + strain_limit) * (1.0 + strain_limit) * (1.0 - 1e-5));
+  int first = 0;
+  for (; first + 1 < n; ++first) {
+    const V3<S> e = p[first + 1] - p[first];
+    const S length2 = dot(e, e);
+    if (anyLane(!(length2 < clear * (rest[first] * rest[first])))) break;
+    *max_strain = vmax(*max_strain, vsqrt(length2) / rest[first] - splat<S>(1.0));
+  }
+  for (int i = first; i + 1 < n; ++i) {
     const V3<S> e = p[i + 1] - p[i];
     *max_strain = vmax(*max_strain, vsqrt(dot(e, e)) / rest[i] - splat<S>(1.0));
     const V3<S> disp = limitEdgeLength(p[i], p[i + 1], splat<S>(1.0 + strain_limit) * rest[i]);

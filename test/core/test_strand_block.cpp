@@ -385,3 +385,61 @@ TEST(StrandBlock, TheHeadDistanceCacheChangesNothingInFloat8Lanes) {
 TEST(StrandBlock, TheHeadDistanceCacheChangesNothingInOneLane) {
   expectTheHeadDistanceCacheChangesNothing<double>();
 }
+
+namespace {
+
+/// Five edges of rest length 1 cm zigzagging along x and y (a projection along one edge leaves
+/// the next one's length alone to first order), at `ratio[i]` times the strain limit's length
+/// (1 + limit) rest, the same in every lane; limitStrainEdges once. Edges 2 and 4 lie 3e-6 past
+/// the limit, edge 1 3e-6 short of it (in the margin the chain-free pass leaves to the chain):
+/// the limit must project exactly the edges past it, and the strain before it is the largest
+/// edge's, whichever pass took it.
+template <typename S>
+void expectTheLimitProjectsExactlyTheEdgesPastIt(const double (&ratio)[5]) {
+  constexpr int kParticles = 6;
+  constexpr double kLimit = 0.1, kRest = 0.01;
+  S rest[kParticles - 1];
+  V3<S> p[kParticles], v[kParticles];
+  Vec3 x = Vec3(0.02, -0.01, 0.03);
+  double largest = -1.0;
+  for (int i = 0; i < kParticles; ++i) {
+    for (int l = 0; l < kLaneWidth<S>; ++l) setLane(&p[i], l, x), setLane(&v[i], l, Vec3::Zero());
+    if (i + 1 == kParticles) break;
+    rest[i] = splat<S>(kRest);
+    const double length = ratio[i] * (1.0 + kLimit) * kRest;
+    largest = std::max(largest, length / kRest - 1.0);
+    x += length * (i % 2 == 0 ? Vec3::UnitX() : Vec3::UnitY());
+  }
+  S max_strain = splat<S>(0.0);
+  uint64_t projected[kLaneWidth<S>] = {};
+  limitStrainEdges(rest, kLimit, true, 1e-3, p, v, kParticles, &max_strain, projected);
+  int past = 0;
+  for (double r : ratio) past += r > 1.0;
+  for (int l = 0; l < kLaneWidth<S>; ++l) {
+    EXPECT_EQ(projected[l], uint64_t(past)) << "lane " << l;
+    EXPECT_NEAR(laneValue(max_strain, l), largest, 1e-6) << "lane " << l;
+    for (int i = 0; i + 1 < kParticles; ++i) {
+      const double length = (lane(p[i + 1], l) - lane(p[i], l)).norm();
+      // Float lanes hold 1 cm edges to about 1e-9 m.
+      EXPECT_LE(length, (1.0 + kLimit) * kRest * (1.0 + 2e-7)) << "lane " << l << ", edge " << i;
+    }
+  }
+}
+
+constexpr double kEdgesNearTheLimit[5] = {0.9, 1.0 - 3e-6, 1.0 + 3e-6, 0.5, 1.0 + 3e-6};
+constexpr double kEdgesClearOfTheLimit[5] = {0.9, 0.95, 0.97, 0.5, 0.99};
+
+}  // namespace
+
+TEST(StrandBlock, TheStrainLimitProjectsExactlyTheEdgesPastItInFloat16Lanes) {
+  expectTheLimitProjectsExactlyTheEdgesPastIt<LaneFloat16>(kEdgesNearTheLimit);
+  expectTheLimitProjectsExactlyTheEdgesPastIt<LaneFloat16>(kEdgesClearOfTheLimit);
+}
+TEST(StrandBlock, TheStrainLimitProjectsExactlyTheEdgesPastItInFloat8Lanes) {
+  expectTheLimitProjectsExactlyTheEdgesPastIt<LaneFloat8>(kEdgesNearTheLimit);
+  expectTheLimitProjectsExactlyTheEdgesPastIt<LaneFloat8>(kEdgesClearOfTheLimit);
+}
+TEST(StrandBlock, TheStrainLimitProjectsExactlyTheEdgesPastItInOneLane) {
+  expectTheLimitProjectsExactlyTheEdgesPastIt<double>(kEdgesNearTheLimit);
+  expectTheLimitProjectsExactlyTheEdgesPastIt<double>(kEdgesClearOfTheLimit);
+}
