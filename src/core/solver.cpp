@@ -142,7 +142,21 @@ void prepareStrandStep(const HairModel& model, const SolverConfig& config, const
   key.reference_step_s = st.reference_step_s;
   const bool same_key = state->stiffness_factor_key[strand] == key;
   state->stiffness_factor_key[strand] = key;
-  for (int i = 0; i < model.strandSize(strand); ++i) {
+  const int n = model.strandSize(strand);
+  if (same_key) {
+    // Where every wet particle's factor stands (the common case), the loop below in two passes
+    // without a branch per particle: the same values.
+    const double* sigma = &state->saturation[begin];
+    const double* held_at = &state->stiffness_factor_saturation[begin];
+    const double* held = &state->stiffness_factor[begin];
+    int stale = 0;
+    for (int i = 0; i < n; ++i) stale += (sigma[i] > 0.0) & (held_at[i] != sigma[i]);
+    if (stale == 0) {
+      for (int i = 0; i < n; ++i) scratch->velocity_factor[i] = sigma[i] > 0.0 ? held[i] : dry;
+      return;
+    }
+  }
+  for (int i = 0; i < n; ++i) {
     const int k = begin + i;
     const double sigma = state->saturation[k];
     if (!(sigma > 0.0)) {

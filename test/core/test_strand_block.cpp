@@ -168,19 +168,19 @@ TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
 }
 
 #if defined(__AVX512F__)
-/// 20 strands of 24 particles moved off the world's origin (to the step's origin) and shaken by
-/// up to jitter_m per coordinate, with velocities of every size up to 3 m/s per axis and, with
-/// random_saturation, saturations anywhere in [0, 1]: what the row gather and scatter tests feed
-/// their two blocks (the first, and the last, partial one).
+/// 20 strands of 24 particles (or `particles`) moved off the world's origin (to the step's origin)
+/// and shaken by up to jitter_m per coordinate, with velocities of every size up to 3 m/s per axis
+/// and, with random_saturation, saturations anywhere in [0, 1]: what the row gather and scatter
+/// tests feed their two blocks (the first, and the last, partial one).
 struct ShakenStrands {
   SolverConfig config;
   HairModel model;
   HairState state;
   StepInputs inputs;
-  ShakenStrands(unsigned seed, double jitter_m, bool random_saturation) {
+  ShakenStrands(unsigned seed, double jitter_m, bool random_saturation, int particles = 24) {
     GroomConfig g;
     g.strands = 20;
-    g.particles = 24;
+    g.particles = particles;
     std::string why;
     EXPECT_TRUE(buildModel(generateGroom(g, EllipsoidShape()), g.linear_density_kg_per_m,
                            HeadShape(), config, &model, &why))
@@ -246,10 +246,12 @@ TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
 /// healthy strand goes to the state, any other to its scratch run, the state left as it was. On
 /// 20 strands off the world's origin, shaken far enough that the limit shortens edges, for the
 /// first block and the last, partial one; a lane given a non-finite velocity, and one a
-/// non-finite position, fail the check, and no other does.
-TEST(StrandBlock, TheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdictToTheBit) {
-  ShakenStrands scene(13, 3e-3, false);
+/// non-finite position, fail the check, and no other does. Strands of 24 particles (the copy
+/// out of the rows takes eight at a time) and of 21 (five left over).
+void expectTheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdict(int particles) {
+  ShakenStrands scene(13, 3e-3, false, particles);
   ASSERT_EQ(scene.model.strandCount(), 20) << "the groom must build";
+  ASSERT_EQ(scene.model.strandSize(0), particles);
   const SolverConfig& config = scene.config;
   const HairModel& model = scene.model;
   HairState& state = scene.state;
@@ -301,6 +303,11 @@ TEST(StrandBlock, TheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdictToT
     }
   }
   EXPECT_GT(limited, 0) << "the shake must make the output edge limit act";
+}
+
+TEST(StrandBlock, TheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdictToTheBit) {
+  expectTheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdict(24);
+  expectTheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdict(21);
 }
 #endif
 
