@@ -626,6 +626,13 @@ WCH_INLINE void ownSharesInLanes(const OwnPairArrays& a, int count, bool particl
       pz += ws * (ez + tz[j]);
     }
     const int lanes = std::min(kW, count - i0);
+    if (lanes == kW) {  // whole registers (lane by lane the compiler went through the stack)
+      std::memcpy(a.weight + i0, &w_sum, sizeof(V));
+      std::memcpy(a.px + i0, &px, sizeof(V));
+      std::memcpy(a.py + i0, &py, sizeof(V));
+      std::memcpy(a.pz + i0, &pz, sizeof(V));
+      continue;
+    }
     for (int l = 0; l < lanes; ++l) {
       a.weight[i0 + l] = w_sum[l];
       a.px[i0 + l] = px[l];
