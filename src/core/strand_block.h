@@ -375,9 +375,11 @@ WCH_INLINE LaneDouble8 widenHalf(const LaneFloat16& row, int half) {
 
 /// Lane l's run of n particles out of rows of 16 lanes in double (row i, axis a, lane l at
 /// rows[48 i + 16 a + l]) into `to`: eight particles (24 doubles) at a time by three gathers of
-/// eight, which took a quarter of the time the element-by-element copy did, the rest one by one.
+/// eight, the rest one by one. Element by element, the copy made the scatter 6.5 % of a profile
+/// of 160 strands in cache; by gathers, 4.2 %.
 WCH_INLINE void copyLaneOutOfRows(const double* rows, int l, int n, Vec3* to) {
-  // Where output k (particle k / 3, axis k % 3) of a group of eight particles sits in its rows.
+  // Output k of a group (particle k / 3, axis k % 3) sits 48 (k / 3) + 16 (k % 3) = 16 k past the
+  // group's first row, lane l.
   const __m256i at[3] = {_mm256_setr_epi32(0, 16, 32, 48, 64, 80, 96, 112),
                          _mm256_setr_epi32(128, 144, 160, 176, 192, 208, 224, 240),
                          _mm256_setr_epi32(256, 272, 288, 304, 320, 336, 352, 368)};
