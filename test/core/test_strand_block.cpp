@@ -171,12 +171,15 @@ TEST(StrandBlock, TheCarryKeepsDoublePositionsInFloat8Lanes) {
 /// 20 strands of 24 particles (or `particles`) moved off the world's origin (to the step's origin)
 /// and shaken by up to jitter_m per coordinate, with velocities of every size up to 3 m/s per axis
 /// and, with random_saturation, saturations anywhere in [0, 1]: what the row gather and scatter
-/// tests feed their two blocks (the first, and the last, partial one).
+/// tests feed their two blocks (the first, and the last, partial one: ShakenBlock).
 struct ShakenStrands {
   SolverConfig config;
   HairModel model;
   HairState state;
   StepInputs inputs;
+  SolverPlan plan;
+  StepStats stats;
+  StrandFlags flags[kMaxStrandLanes];
   ShakenStrands(unsigned seed, double jitter_m, bool random_saturation, int particles = 24) {
     GroomConfig g;
     g.strands = 20;
@@ -196,6 +199,19 @@ struct ShakenStrands {
       state.velocity[k] = Vec3(speed(rng), speed(rng), speed(rng));
       if (random_saturation) state.saturation[k] = wet(rng);
     }
+    plan = planStep(model, config, 1e-3);
+  }
+};
+
+/// The block of 16 float lanes of a ShakenStrands scene from strand `first` (active strands
+/// there, the rest padding), gathered (initBlock).
+struct ShakenBlock {
+  int active;
+  Block<LaneFloat16> blk;
+  ShakenBlock(ShakenStrands& s, int first)
+      : active(std::min(16, s.model.strandCount() - first)),
+        blk(s.model, s.config, s.inputs, s.plan, &s.state, &s.state.scratch[0], &s.stats, 1e-3) {
+    initBlock(&blk, first, active, s.flags);
   }
 };
 
@@ -207,18 +223,10 @@ struct ShakenStrands {
 TEST(StrandBlock, TheRowGatherStoresTheLaneGathersLanesToTheBit) {
   ShakenStrands scene(11, 2e-3, true);
   ASSERT_EQ(scene.model.strandCount(), 20) << "the groom must build";
-  const SolverConfig& config = scene.config;
-  const HairModel& model = scene.model;
-  HairState& state = scene.state;
-  const StepInputs& inputs = scene.inputs;
-  const SolverPlan plan = planStep(model, config, 1e-3);
-  StepStats stats;
-  StrandFlags flags[kMaxStrandLanes];
   for (int first : {0, 16}) {
-    const int active = std::min(16, model.strandCount() - first);
-    Block<LaneFloat16> blk(model, config, inputs, plan, &state, &state.scratch[0], &stats, 1e-3);
-    initBlock(&blk, first, active, flags);
-    const int n = blk.n;
+    ShakenBlock block(scene, first);
+    Block<LaneFloat16>& blk = block.blk;
+    const int active = block.active, n = blk.n;
     // What the row gather stored, then the lane gather over it.
     auto copy = [n](const auto* from, int per_particle) {
       const auto* bytes = reinterpret_cast<const unsigned char*>(from);
@@ -255,10 +263,6 @@ void expectTheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdict(int parti
   const SolverConfig& config = scene.config;
   const HairModel& model = scene.model;
   HairState& state = scene.state;
-  const StepInputs& inputs = scene.inputs;
-  const SolverPlan plan = planStep(model, config, 1e-3);
-  StepStats stats;
-  StrandFlags flags[kMaxStrandLanes];
   auto same_bits = [](const Vec3& a, const Vec3& b) {
     for (int axis = 0; axis < 3; ++axis) {
       const double x = a[axis], y = b[axis];
@@ -268,10 +272,9 @@ void expectTheRowScatterOutputsTheLaneScattersValuesAndTheCheckVerdict(int parti
   };
   int limited = 0;
   for (int first : {0, 16}) {
-    const int active = std::min(16, model.strandCount() - first);
-    Block<LaneFloat16> blk(model, config, inputs, plan, &state, &state.scratch[0], &stats, 1e-3);
-    initBlock(&blk, first, active, flags);
-    const int n = blk.n;
+    ShakenBlock block(scene, first);
+    Block<LaneFloat16>& blk = block.blk;
+    const int active = block.active, n = blk.n;
     if (first == 0) {
       setLaneValue(&blk.a.v[5].y, 3, std::numeric_limits<double>::quiet_NaN());
       setLaneValue(&blk.a.p[n - 1].z, 9, std::numeric_limits<double>::infinity());
