@@ -19,6 +19,7 @@
 # frame. (The .hair frames store float32 positions: 30 nm at 25 cm, far below it.)
 #   WCH_PORTABLE_MARCH   the portable target (default x86-64-v3; its build folder is
 #                        BUILD_portable, or BUILD_portable_<march> for another one)
+# It also compiles and runs the lane mask tests (test/core/test_lane_math.cpp) for that target.
 # Then the cohesion display positions p^w on a fully wet scene, the lattice at 2, 3 and 4 nodes
 # per radius: an AVX2 build gathers in other lane layouts than an AVX-512 one (rows of 6 and 8
 # nodes one per register, unrolled; rows of 4 two per register), so this is where those paths
@@ -54,6 +55,16 @@ check "the portable runner builds" "[ $? -eq 0 ] || { tail -20 $out/build.log; f
 flags=$portable/CMakeFiles/wet_curly_hair_core.dir/flags.make
 check "the portable core is compiled for $march, not -march=native" \
   "grep -q -- '-march=$march ' $flags && ! grep -q -- '-march=native' $flags"
+
+# The lane mask tests (test_lane_math) in the portable instruction set: there the 32- and 64-byte
+# masks take anyLane's AVX paths (the native build's AVX-512 tests take the other), every lane of
+# every layout. Header-only, so compiled here directly.
+${CXX:-c++} -std=c++17 -O2 -march=$march -Wno-psabi -I"$src/include" -I/usr/include/eigen3 \
+  "$src/test/core/test_lane_math.cpp" -lgtest -lgtest_main -pthread -o "$out/test_lane_math" \
+  > "$out/lane_math_build.log" 2>&1
+check "the lane mask tests build for $march" "[ $? -eq 0 ] || { tail -20 $out/lane_math_build.log; false; }"
+"$out/test_lane_math" > "$out/lane_math.log" 2>&1
+check "the lane mask tests pass for $march" "[ $? -eq 0 ] || { tail -30 $out/lane_math.log; false; }"
 
 args=(--strands 17 --particles 32 --saturation 0.3,1 --motion nod:freq_hz=1.5,amplitude_rad=0.35
       --seconds 0.4 --integrator theta --substep 0.001 --cohesion off --hair-stride 1)
