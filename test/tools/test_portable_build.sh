@@ -56,9 +56,9 @@ flags=$portable/CMakeFiles/wet_curly_hair_core.dir/flags.make
 check "the portable core is compiled for $march, not -march=native" \
   "grep -q -- '-march=$march ' $flags && ! grep -q -- '-march=native' $flags"
 
-# The lane mask tests (test_lane_math) in the portable instruction set: there the 32- and 64-byte
-# masks take anyLane's AVX paths (the native build's AVX-512 tests take the other), every lane of
-# every layout. Header-only, so compiled here directly.
+# The lane mask tests (test_lane_math) in the portable instruction set: there the 32-byte masks
+# take anyLane's AVX test and the 64-byte ones the lane by lane OR (the native AVX-512 build tests
+# its own paths), every lane of every layout. Header-only, so compiled here directly.
 ${CXX:-c++} -std=c++17 -O2 -march=$march -Wno-psabi -I"$src/include" -I/usr/include/eigen3 \
   "$src/test/core/test_lane_math.cpp" -lgtest -lgtest_main -pthread -o "$out/test_lane_math" \
   > "$out/lane_math_build.log" 2>&1
