@@ -97,8 +97,9 @@ WCH_INLINE bool anyLane(const M& m) {
     return _mm512_test_epi64_mask(bits, bits) != 0;
   }
 #endif
-  // Without AVX-512 a 64-byte mask stays here: its halves ORed and tested once ran 0.94x (the
-  // first README 10,000-strand command with float16 lanes in an x86-64-v3 build, 6 pairs).
+  // Without AVX-512 a 64-byte mask stays here: with its halves ORed and tested once, the first
+  // README 10,000-strand command ran at 0.94x the real-time factor (float16 lanes in an
+  // x86-64-v3 build, 6 pairs).
   std::decay_t<decltype(m[0])> r = 0;
   for (int l = 0; l < static_cast<int>(sizeof(M) / sizeof(m[0])); ++l) r |= m[l];
   return r != 0;
