@@ -4,6 +4,7 @@ substep through the offline runner and judges each run.
 
     bench/hard_cases.py [--build DIR] [--short] [--out DIR] [--jobs N] [--readme FILE]
                         [--make-inputs] [--scenes a,b] [--integrators a,b] [--steps 0.001,...]
+                        [--hair-contact] [--follow-ratio K]
 
 Criteria (each run; a run passes when it meets all five):
   finite   every value stayed finite: JSON `finite`, `nonfinite_values` = 0, every energy finite,
@@ -16,8 +17,11 @@ Criteria (each run; a run passes when it meets all five):
            collision keeps particles the offset outside the surface; the criterion lets a particle
            lose at most that cushion. Frame 0 is not judged: some scenes start inside on purpose.
   energy   E_peak <= E_0 + E_in + slack, with E the runner's total energy (kinetic + gravity +
-           stretch + bend + core) per frame, E_peak its largest value after frame 0, and
-             E_in  = 1/2 M v_peak^2 + rigid_potential_rise_max_j: what the motion can put in.
+           stretch + bend + core) of the simulated strands per frame (`energy_simulated`: every
+           strand, or with --follow-ratio the guides: followers are placed, not integrated),
+           E_peak its largest value after frame 0, and
+             E_in  = 1/2 M v_peak^2 + rigid_potential_rise_simulated_max_j: what the motion can
+                     put in, all three `*_simulated` keys of the same strands.
                      M is the hair's mass; v_peak (`head_peak_reach_speed_m_s`) the fastest a
                      point of a strand can move when carried rigidly by the head in any shape,
                      |v_origin| + |omega| (|root - origin| + strand length), over the frames (the
@@ -194,14 +198,20 @@ def runner_args(scene_path):
 
 def judge(d, rc, settings, saturation_changes, from_first_step):
     row = {}
-    energy = d.get("energy") or []
+    # The energy criterion judges the simulated strands (every strand, or the guides with
+    # followers): a follower is placed from its guides, not integrated, so its springs hold the
+    # energy of an interpolated shape that no force relaxes, and no solver step made it. Every
+    # other criterion judges every strand. The energy of all strands is reported (energy_all_*).
+    energy = d.get("energy_simulated") or []
+    energy_all = d.get("energy") or []
     finite = (rc == 0 and bool(d.get("finite")) and d.get("nonfinite_values", 1) == 0 and
-              all(math.isfinite(e) for e in energy) and len(energy) > 1)
+              all(math.isfinite(e) for e in energy + energy_all) and len(energy) > 1)
     e0 = energy[0] if energy else float("nan")
     e_peak = max(energy[1:]) if len(energy) > 1 else float("nan")
     e_final = energy[-1] if energy else float("nan")
-    mass = d.get("hair_mass_kg", 0.0)
-    e_in = 0.5 * mass * d.get("head_peak_reach_speed_m_s", 0.0) ** 2 + d.get("rigid_potential_rise_max_j", 0.0)
+    mass = d.get("hair_mass_simulated_kg", 0.0)
+    e_in = 0.5 * mass * d.get("head_peak_reach_speed_simulated_m_s", 0.0) ** 2 + \
+        d.get("rigid_potential_rise_simulated_max_j", 0.0)
     slack = 0.1 * e_in + 0.01 * mass * G0 * L0
     if from_first_step and len(energy) > 1:
         e0 = energy[1]
@@ -227,6 +237,8 @@ def judge(d, rc, settings, saturation_changes, from_first_step):
         "max_penetration_m_any_frame": d.get("max_penetration_m"),
         "energy_initial_j": e0, "energy_peak_j": e_peak, "energy_final_j": e_final,
         "energy_input_j": e_in, "energy_bound_j": bound,
+        "energy_all_initial_j": energy_all[0] if energy_all else float("nan"),
+        "energy_all_peak_j": max(energy_all[1:]) if len(energy_all) > 1 else float("nan"),
         "energy_judged": ("final" if saturation_changes else "peak") + (
             " vs first step" if from_first_step else ""),
         "max_speed_m_s": max(d.get("max_speed_m_s") or [float("nan")]),
@@ -236,9 +248,14 @@ def judge(d, rc, settings, saturation_changes, from_first_step):
     return row
 
 
-def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeout, contact=False):
+def run_one(run, out_dir, scene, integrator, step_label, step_s, settings, timeout, contact=False,
+            follow_ratio=1):
     scene_path = os.path.join("config", "hard", scene + ".yaml")
     extra = runner_args(os.path.join(PKG, scene_path))
+    if follow_ratio > 1:
+        # One strand in K simulated, the others followers placed from them (docs/followers.md):
+        # every criterion is judged over all strands, the followers included.
+        extra = extra + ["--follow-ratio", str(follow_ratio)]
     if contact:
         # The substep under test, not the contact's longest (solver.hair_contact.max_substep_s,
         # which would cut every longer step to 5e-4 s).
@@ -291,7 +308,8 @@ COLUMNS = ["scene", "integrator", "substep", "substep_s", "frame_s", "expected_s
            "strain_limit", "head_penetration_after_first_step_m", "head_tolerance_m",
            "obstacle_penetration_after_first_step_m", "obstacle_tolerance_m",
            "max_penetration_m_any_frame", "energy_initial_j", "energy_peak_j", "energy_final_j",
-           "energy_input_j", "energy_bound_j", "energy_judged", "max_speed_m_s", "wall_s",
+           "energy_input_j", "energy_bound_j", "energy_judged", "energy_all_initial_j",
+           "energy_all_peak_j", "max_speed_m_s", "wall_s",
            "realtime_factor", "elapsed_s", "command"]
 
 
@@ -376,7 +394,12 @@ def main():
     ap.add_argument("--scenes"), ap.add_argument("--integrators"), ap.add_argument("--steps")
     ap.add_argument("--hair-contact", action="store_true",
                     help="every run with hair-hair contact on (writes hard_cases_contact.*)")
+    ap.add_argument("--follow-ratio", type=int, default=1,
+                    help="every run with one strand in K simulated and the rest followers "
+                         "(K > 1 writes hard_cases_followers.*)")
     args = ap.parse_args()
+    if args.follow_ratio < 1:
+        sys.exit("hard_cases: --follow-ratio must be at least 1, got %d" % args.follow_ratio)
     run = find_tool(args.build, "wet_curly_hair_run")
     if not run:
         sys.exit("hard_cases: wet_curly_hair_run not found under " + args.build)
@@ -400,7 +423,7 @@ def main():
     t0 = time.time()
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         futures = [pool.submit(run_one, run, work, sc, integ, lbl, val, settings[sc], args.timeout,
-                               args.hair_contact)
+                               args.hair_contact, args.follow_ratio)
                    for sc, integ, lbl, val in jobs]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
@@ -412,12 +435,15 @@ def main():
     name = "hard_cases_short" if args.short else "hard_cases"
     if args.hair_contact:
         name += "_contact"
+    if args.follow_ratio > 1:
+        name += "_followers"
     with open(os.path.join(args.out, name + ".csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=COLUMNS, extrasaction="ignore")
         w.writeheader()
         w.writerows(rows)
     command = "bench/hard_cases.py --build _build --jobs 2" + (" --short" if args.short else "") + \
-        (" --hair-contact" if args.hair_contact else "") + "".join(
+        (" --hair-contact" if args.hair_contact else "") + \
+        (" --follow-ratio %d" % args.follow_ratio if args.follow_ratio > 1 else "") + "".join(
             " --%s %s" % (name, value) for name, value in
             [("scenes", args.scenes), ("integrators", args.integrators), ("steps", args.steps)]
             if value)

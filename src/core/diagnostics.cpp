@@ -42,10 +42,12 @@ double maxHeadPenetration(const HairModel& model, const HairState& state, const 
 }
 
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
-                   HairState* state) {
+                   HairState* state, int strands) {
   EnergyParts e;
   StrandScratch& scr = state->scratch.front();
-  for (int s = 0; s < model.strandCount(); ++s) {
+  const bool every = strands < 0 || strands >= model.strandCount();
+  const int count = every ? model.strandCount() : strands;
+  for (int s = 0; s < count; ++s) {
     const int begin = model.strandBegin(s);
     const int n = model.strandSize(s);
     const Vec3* p = &state->position[begin];
@@ -66,7 +68,7 @@ EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pos
       e.core += coreEnergy(scr.smooth_core[i], model.core_rest_m[begin + i], model.core_k[s]);
     }
   }
-  if (config.hair_contact.enabled)
+  if (config.hair_contact.enabled && every)
     e.hair_contact = hairContactEnergy(model, config.hair_contact, state);
   return e;
 }

@@ -115,6 +115,9 @@ std::string RunSummary::toJson() const {
       .add("rigid_potential_rise_max_j", rigid_potential_rise_max_j)
       .add("head_peak_reach_speed_m_s", head_peak_reach_speed_m_s)
       .add("hair_mass_kg", hair_mass_kg)
+      .add("rigid_potential_rise_simulated_max_j", rigid_potential_rise_simulated_max_j)
+      .add("head_peak_reach_speed_simulated_m_s", head_peak_reach_speed_simulated_m_s)
+      .add("hair_mass_simulated_kg", hair_mass_simulated_kg)
       .add("max_strain_start", max_strain_start)
       .add("max_strain_end", max_strain_end)
       .add("mean_strain_start", mean_strain_start)
@@ -153,6 +156,7 @@ std::string RunSummary::toJson() const {
       .add("cohesion_float_lanes", cohesion_float_lanes)
       .add("time_s", time_s)
       .add("energy", energy)
+      .add("energy_simulated", energy_simulated)
       .add("kinetic_energy", kinetic_energy)
       .add("max_speed_m_s", max_speed_m_s)
       .add("mean_saturation", mean_saturation)
@@ -345,25 +349,31 @@ bool buildObstacleField(const SceneConfig& scene, const HairModel& model, long f
   return true;
 }
 
-/// What the motion can put in: the groom carried rigidly by the head (RunSummary's
-/// rigid_kinetic_energy_max_j, rigid_potential_rise_max_j, head_peak_reach_speed_m_s and
-/// hair_mass_kg). From the groom's mass moments in the head frame (mass M, first moment mu,
-/// second moment S of the non-root particles), so each frame costs O(1) whatever the groom:
-/// carried from pose a to pose b, a particle at x moves by A x + d (A = R_b - R_a,
-/// d = t_b - t_a), and sum m |A x + d|^2 = tr(A S A^T) + 2 d . A mu + M |d|^2; the gravitational
-/// energy at a pose is -g . (R mu + M t).
-void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long frames,
-                        RunSummary* s) {
+/// What the motion can put into strands [0, strands): carried rigidly by the head.
+struct RigidMotion {
+  double mass_kg = 0.0, kinetic_max_j = 0.0, potential_rise_max_j = 0.0, reach_speed_m_s = 0.0;
+};
+
+/// RigidMotion of strands [0, strands) (RunSummary's rigid_kinetic_energy_max_j,
+/// rigid_potential_rise_max_j, head_peak_reach_speed_m_s and hair_mass_kg for every strand).
+/// From their mass moments in the head frame (mass M, first moment mu, second moment S of the
+/// non-root particles), so each frame costs O(1) whatever the groom: carried from pose a to pose
+/// b, a particle at x moves by A x + d (A = R_b - R_a, d = t_b - t_a), and
+/// sum m |A x + d|^2 = tr(A S A^T) + 2 d . A mu + M |d|^2; the gravitational energy at a pose is
+/// -g . (R mu + M t).
+RigidMotion rigidMotion(const SceneConfig& scene, const HairModel& model, int strands,
+                        long frames) {
   const HeadMotionConfig& motion = scene.motion;
   const double frame = scene.run.frame_s;
   const Vec3& g = scene.solver.gravity_m_s2;
-  double mass = 0.0, reach = 0.0;
+  RigidMotion r;
+  double reach = 0.0;
   Vec3 mu = Vec3::Zero();
   Mat3 second = Mat3::Zero();
-  for (int st = 0; st < model.strandCount(); ++st) {
+  for (int st = 0; st < strands; ++st) {
     for (int i = model.strandBegin(st) + 1; i < model.strandBegin(st) + model.strandSize(st); ++i) {
       const Vec3& x = model.rest_position_head[i];
-      mass += model.mass_kg[i];
+      r.mass_kg += model.mass_kg[i];
       mu += model.mass_kg[i] * x;
       second += model.mass_kg[i] * x * x.transpose();
     }
@@ -372,9 +382,8 @@ void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long f
     reach = std::max(
         reach, model.rest_position_head[model.strandBegin(st)].norm() + model.strand_length_m[st]);
   }
-  s->hair_mass_kg = mass;
   auto potential = [&](const Pose& pose) {
-    return -g.dot(pose.rotation * mu + mass * pose.translation);
+    return -g.dot(pose.rotation * mu + r.mass_kg * pose.translation);
   };
   const double u0 = potential(headPose(motion, 0.0));
   for (long f = 0; f < frames; ++f) {
@@ -382,16 +391,34 @@ void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long f
     const Mat3 A = b.rotation.toRotationMatrix() - a.rotation.toRotationMatrix();
     const Vec3 d = b.translation - a.translation;
     const double sum_m_v2 =
-        (A * second * A.transpose()).trace() + 2.0 * d.dot(A * mu) + mass * d.squaredNorm();
-    s->rigid_kinetic_energy_max_j =
-        std::max(s->rigid_kinetic_energy_max_j, 0.5 * sum_m_v2 / (frame * frame));
+        (A * second * A.transpose()).trace() + 2.0 * d.dot(A * mu) + r.mass_kg * d.squaredNorm();
+    r.kinetic_max_j = std::max(r.kinetic_max_j, 0.5 * sum_m_v2 / (frame * frame));
     // Fastest point a strand can reach when carried rigidly: |v_origin| + |w| (|root - o| + L).
     const Eigen::AngleAxisd turn(b.rotation * a.rotation.conjugate());
     const double w = std::abs(turn.angle()) / frame;
     const double v_origin = d.norm() / frame;
-    s->head_peak_reach_speed_m_s = std::max(s->head_peak_reach_speed_m_s, v_origin + w * reach);
-    s->rigid_potential_rise_max_j = std::max(s->rigid_potential_rise_max_j, potential(b) - u0);
+    r.reach_speed_m_s = std::max(r.reach_speed_m_s, v_origin + w * reach);
+    r.potential_rise_max_j = std::max(r.potential_rise_max_j, potential(b) - u0);
   }
+  return r;
+}
+
+/// RunSummary's rigid-motion fields: for every strand, and for the simulated strands (the guides
+/// with followers, whose energy energy_simulated holds).
+void measureRigidMotion(const SceneConfig& scene, const HairModel& model, long frames,
+                        RunSummary* s) {
+  const RigidMotion all = rigidMotion(scene, model, model.strandCount(), frames);
+  s->hair_mass_kg = all.mass_kg;
+  s->rigid_kinetic_energy_max_j = all.kinetic_max_j;
+  s->rigid_potential_rise_max_j = all.potential_rise_max_j;
+  s->head_peak_reach_speed_m_s = all.reach_speed_m_s;
+  const RigidMotion simulated =
+      model.simulatedStrandCount() < model.strandCount()
+          ? rigidMotion(scene, model, model.simulatedStrandCount(), frames)
+          : all;
+  s->hair_mass_simulated_kg = simulated.mass_kg;
+  s->rigid_potential_rise_simulated_max_j = simulated.potential_rise_max_j;
+  s->head_peak_reach_speed_simulated_m_s = simulated.reach_speed_m_s;
 }
 
 /// The per-frame measurements (energy, strain, penetration, extension, jitter, tangles) and the
@@ -433,6 +460,10 @@ class FrameMeasurements {
         const EnergyParts e = energy(model_, scene_.solver, pose, state);
         s->time_s.push_back(t);
         s->energy.push_back(e.total());
+        s->energy_simulated.push_back(
+            model_.simulatedStrandCount() < model_.strandCount()
+                ? energy(model_, scene_.solver, pose, state, model_.simulatedStrandCount()).total()
+                : e.total());
         s->kinetic_energy.push_back(e.kinetic);
         s->max_speed_m_s.push_back(maxSpeed(model_, *state));
         s->mean_saturation.push_back(meanSaturation(*state));

@@ -12,6 +12,7 @@
 #include <random>
 
 #include "wet_curly_hair/core/cohesion.h"
+#include "wet_curly_hair/core/diagnostics.h"
 #include "wet_curly_hair/core/followers.h"
 #include "wet_curly_hair/core/head_motion.h"
 #include "wet_curly_hair/core/saturation.h"
@@ -227,6 +228,32 @@ TEST(Followers, GuidesMoveExactlyAsTheSameStrandsInTheFullSimulation) {
       ASSERT_EQ(b.position[half.strandBegin(s) + i], a.position[full.strandBegin(src) + i])
           << "guide " << s << " particle " << i;
   }
+}
+
+TEST(Followers, TheSimulatedStrandsEnergyCountsTheGuidesAlone) {
+  // energy() over model.simulatedStrandCount() strands (the runner's energy_simulated): the
+  // guides come first, so it must take every guide particle and no follower's. Kinetic energy
+  // tells them apart: the guides moving at 1 m/s, the followers at 2 m/s.
+  const SolverConfig c;
+  const HairModel m = followerModel(curlyGroom(40), 4, c);
+  const int guides = m.simulatedStrandCount();
+  ASSERT_GT(guides, 0);
+  ASSERT_LT(guides, m.strandCount());
+  HairState s = makeState(m, Pose(), Twist());
+  double guide_mass = 0.0, follower_mass = 0.0;  // non-root particles, as energy() counts them
+  for (int st = 0; st < m.strandCount(); ++st)
+    for (int i = m.strandBegin(st); i < m.strandBegin(st) + m.strandSize(st); ++i) {
+      const bool guide = st < guides;
+      s.velocity[i] = guide ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 2.0, 0.0);
+      if (i > m.strandBegin(st)) (guide ? guide_mass : follower_mass) += m.mass_kg[i];
+    }
+  const EnergyParts simulated = energy(m, c, Pose(), &s, guides);
+  const EnergyParts all = energy(m, c, Pose(), &s);
+  EXPECT_NEAR(simulated.kinetic, 0.5 * guide_mass, 1e-12 * guide_mass);
+  EXPECT_NEAR(all.kinetic, 0.5 * guide_mass + 2.0 * follower_mass, 1e-12 * follower_mass);
+  // Every strand, however it is asked for.
+  EXPECT_EQ(energy(m, c, Pose(), &s, m.strandCount()).total(), all.total());
+  EXPECT_EQ(energy(m, c, Pose(), &s, m.strandCount() + 5).total(), all.total());
 }
 
 TEST(Followers, AFollowerOnAGuidesRootWithItsShapeCopiesIt) {

@@ -27,9 +27,12 @@ struct EnergyParts {
   double hair_contact = 0.0;  ///< the hair contact's penalty (hairContactEnergy), when enabled.
   double total() const { return kinetic + gravity + stretch + bend + core + hair_contact; }
 };
-/// Absolute kinetic energy (world frame). Uses state->scratch (no allocation).
+/// Absolute kinetic energy (world frame). Uses state->scratch (no allocation). Over the first
+/// `strands` strands of the model, every strand when negative: with followers the guides come
+/// first, so model.simulatedStrandCount() gives the energy of what the dynamics advances. The hair
+/// contact's penalty couples strands and is counted with every strand only.
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
-                   HairState* state);
+                   HairState* state, int strands = -1);
 
 /// Largest particle speed (m/s), non-root particles.
 double maxSpeed(const HairModel& model, const HairState& state);

@@ -105,8 +105,11 @@ struct RunSummary {
   uint64_t nonfinite_values = 0;
   bool finite = true;
   double max_speed_end_m_s = 0.0;
-  std::vector<double> time_s;          ///< per frame
-  std::vector<double> energy;          ///< total energy per frame, J
+  std::vector<double> time_s;  ///< per frame
+  std::vector<double> energy;  ///< total energy per frame, J
+  /// The simulated strands' total energy per frame, J: the guides' with followers (energy() over
+  /// model.simulatedStrandCount()), the same as `energy` without them.
+  std::vector<double> energy_simulated;
   std::vector<double> kinetic_energy;  ///< per frame, J
   std::vector<double> max_speed_m_s;   ///< per frame
   uint64_t velocity_clamps = 0;
@@ -166,6 +169,11 @@ struct RunSummary {
   /// |v_head origin| + |omega| (|root - origin| + strand length), over the frames, m/s.
   double head_peak_reach_speed_m_s = 0.0;
   double hair_mass_kg = 0.0;  ///< non-root particles.
+  /// The same three for the simulated strands only (the guides with followers; equal to the
+  /// above without them): what the motion can put into them.
+  double rigid_potential_rise_simulated_max_j = 0.0;
+  double head_peak_reach_speed_simulated_m_s = 0.0;
+  double hair_mass_simulated_kg = 0.0;
   /// Strand length drift: edge strain and strand extension at the first and the last frame.
   double max_strain_start = 0.0, max_strain_end = 0.0;
   double mean_strain_start = 0.0, mean_strain_end = 0.0;
