@@ -42,12 +42,11 @@ double maxHeadPenetration(const HairModel& model, const HairState& state, const 
 }
 
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
-                   HairState* state, int strands) {
+                   HairState* state, int split, EnergyParts* first_strands) {
   EnergyParts e;
   StrandScratch& scr = state->scratch.front();
-  const bool every = strands < 0 || strands >= model.strandCount();
-  const int count = every ? model.strandCount() : strands;
-  for (int s = 0; s < count; ++s) {
+  for (int s = 0; s < model.strandCount(); ++s) {
+    if (s == split && first_strands) *first_strands = e;
     const int begin = model.strandBegin(s);
     const int n = model.strandSize(s);
     const Vec3* p = &state->position[begin];
@@ -68,7 +67,8 @@ EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pos
       e.core += coreEnergy(scr.smooth_core[i], model.core_rest_m[begin + i], model.core_k[s]);
     }
   }
-  if (config.hair_contact.enabled && every)
+  if (first_strands && (split < 0 || split >= model.strandCount())) *first_strands = e;
+  if (config.hair_contact.enabled)
     e.hair_contact = hairContactEnergy(model, config.hair_contact, state);
   return e;
 }

@@ -457,13 +457,14 @@ class FrameMeasurements {
     ++recorded_frames_;
     if (f % options_.series_stride == 0 || f == frames_) {
       timed(kMeasureEnergy, [&] {
-        const EnergyParts e = energy(model_, scene_.solver, pose, state);
+        // The simulated strands' parts come from the same pass (they are the first strands).
+        EnergyParts simulated;
+        const int guides = model_.simulatedStrandCount();
+        const EnergyParts e = energy(model_, scene_.solver, pose, state, guides, &simulated);
         s->time_s.push_back(t);
         s->energy.push_back(e.total());
-        s->energy_simulated.push_back(
-            model_.simulatedStrandCount() < model_.strandCount()
-                ? energy(model_, scene_.solver, pose, state, model_.simulatedStrandCount()).total()
-                : e.total());
+        s->energy_simulated.push_back(guides < model_.strandCount() ? simulated.total()
+                                                                    : e.total());
         s->kinetic_energy.push_back(e.kinetic);
         s->max_speed_m_s.push_back(maxSpeed(model_, *state));
         s->mean_saturation.push_back(meanSaturation(*state));

@@ -247,13 +247,19 @@ TEST(Followers, TheSimulatedStrandsEnergyCountsTheGuidesAlone) {
       s.velocity[i] = guide ? Vec3(1.0, 0.0, 0.0) : Vec3(0.0, 2.0, 0.0);
       if (i > m.strandBegin(st)) (guide ? guide_mass : follower_mass) += m.mass_kg[i];
     }
-  const EnergyParts simulated = energy(m, c, Pose(), &s, guides);
-  const EnergyParts all = energy(m, c, Pose(), &s);
+  EnergyParts simulated;
+  const EnergyParts all = energy(m, c, Pose(), &s, guides, &simulated);
   EXPECT_NEAR(simulated.kinetic, 0.5 * guide_mass, 1e-12 * guide_mass);
   EXPECT_NEAR(all.kinetic, 0.5 * guide_mass + 2.0 * follower_mass, 1e-12 * follower_mass);
+  EXPECT_EQ(all.total(), energy(m, c, Pose(), &s).total());  // the split changes no total
   // Every strand, however it is asked for.
-  EXPECT_EQ(energy(m, c, Pose(), &s, m.strandCount()).total(), all.total());
-  EXPECT_EQ(energy(m, c, Pose(), &s, m.strandCount() + 5).total(), all.total());
+  EnergyParts whole, beyond, unsplit;
+  energy(m, c, Pose(), &s, m.strandCount(), &whole);
+  energy(m, c, Pose(), &s, m.strandCount() + 5, &beyond);
+  energy(m, c, Pose(), &s, -1, &unsplit);
+  EXPECT_EQ(whole.total(), all.total());
+  EXPECT_EQ(beyond.total(), all.total());
+  EXPECT_EQ(unsplit.total(), all.total());
 }
 
 TEST(Followers, AFollowerOnAGuidesRootWithItsShapeCopiesIt) {

@@ -27,12 +27,13 @@ struct EnergyParts {
   double hair_contact = 0.0;  ///< the hair contact's penalty (hairContactEnergy), when enabled.
   double total() const { return kinetic + gravity + stretch + bend + core + hair_contact; }
 };
-/// Absolute kinetic energy (world frame). Uses state->scratch (no allocation). Over the first
-/// `strands` strands of the model, every strand when negative: with followers the guides come
-/// first, so model.simulatedStrandCount() gives the energy of what the dynamics advances. The hair
-/// contact's penalty couples strands and is counted with every strand only.
+/// Absolute kinetic energy (world frame). Uses state->scratch (no allocation). Over every
+/// strand; with `first_strands`, also the parts of the first `split` strands alone (every strand
+/// when split is negative or past the count), taken on the way in the same pass: with followers
+/// the guides come first, so split = model.simulatedStrandCount() gives the energy of what the
+/// dynamics advances. The hair contact's penalty couples strands and is counted in the total only.
 EnergyParts energy(const HairModel& model, const SolverConfig& config, const Pose& head_pose,
-                   HairState* state, int strands = -1);
+                   HairState* state, int split = -1, EnergyParts* first_strands = nullptr);
 
 /// Largest particle speed (m/s), non-root particles.
 double maxSpeed(const HairModel& model, const HairState& state);

@@ -107,8 +107,8 @@ struct RunSummary {
   double max_speed_end_m_s = 0.0;
   std::vector<double> time_s;  ///< per frame
   std::vector<double> energy;  ///< total energy per frame, J
-  /// The simulated strands' total energy per frame, J: the guides' with followers (energy() over
-  /// model.simulatedStrandCount()), the same as `energy` without them.
+  /// The simulated strands' total energy per frame, J: the guides' with followers (energy()'s
+  /// first model.simulatedStrandCount() strands), the same as `energy` without them.
   std::vector<double> energy_simulated;
   std::vector<double> kinetic_energy;  ///< per frame, J
   std::vector<double> max_speed_m_s;   ///< per frame
