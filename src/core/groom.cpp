@@ -1,5 +1,6 @@
 #include "wet_curly_hair/core/groom.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -228,6 +229,67 @@ Groom generateGroom(const GroomConfig& c, const EllipsoidShape& head) {
     g.strand_offsets.push_back(static_cast<uint32_t>(g.points.size()));
   }
   return g;
+}
+
+Vec3 nearestEllipsoidPoint(const EllipsoidShape& e, const Vec3& x) {
+  const Vec3 y = x - e.center_m, r2 = e.radii_m.cwiseProduct(e.radii_m);
+  const Vec3 a = e.radii_m.cwiseProduct(y);
+  auto excess = [&](double t) {  // F(t): > 0 below the root, < 0 above it
+    return (a.array() / (r2.array() + t)).matrix().squaredNorm() - 1.0;
+  };
+  auto pointAt = [&](double t) {
+    return Vec3(e.center_m + (r2.array() * y.array() / (r2.array() + t)).matrix());
+  };
+  auto alongRay = [&]() -> Vec3 {
+    const double k = y.cwiseQuotient(e.radii_m).norm();
+    if (!(k > 0.0)) {  // the centre: leave along the shortest axis
+      int axis = 0;
+      e.radii_m.minCoeff(&axis);
+      return e.center_m + e.radii_m[axis] * Vec3::Unit(axis);
+    }
+    return e.center_m + y / k;
+  };
+  const double f0 = excess(0.0);
+  if (f0 == 0.0) return x;
+  double lo, hi;
+  if (f0 > 0.0) {  // outside: F(|a|) <= 0, since r_i^2 + |a| >= |a| >= |a_i| in every term
+    lo = 0.0;
+    hi = a.norm();
+  } else {  // inside: F rises without bound toward -r_min^2 if a has a component there
+    hi = 0.0;
+    lo = -r2.minCoeff();
+    const double near_pole = lo * (1.0 - 1e-12);
+    if (!(excess(near_pole) > 0.0)) return alongRay();
+  }
+  // Bisection to the end of double precision: the interval halves until its midpoint repeats an
+  // end (at most about 2100 halvings; some 60 from these brackets).
+  for (int k = 0; k < 4096; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid <= lo || mid >= hi) break;
+    (excess(mid) > 0.0 ? lo : hi) = mid;
+  }
+  return pointAt(0.5 * (lo + hi));
+}
+
+ScalpPlacement placeRootsOnScalp(const EllipsoidShape& head, Groom* groom) {
+  ScalpPlacement placed;
+  const Vec3 inv_r2 = head.radii_m.cwiseProduct(head.radii_m).cwiseInverse();
+  for (int s = 0; s < groom->strandCount(); ++s) {
+    const int begin = static_cast<int>(groom->strand_offsets[s]),
+              end = begin + groom->strandSize(s);
+    const Vec3 root = nearestEllipsoidPoint(head, groom->points[begin]);
+    const Vec3 move = root - groom->points[begin];
+    for (int i = begin; i < end; ++i) groom->points[i] += move;
+    groom->points[begin] = root;  // exactly on the surface, not root + move's round-off
+    groom->root_normals[s] = (root - head.center_m).cwiseProduct(inv_r2).normalized();
+    const double moved = move.norm();
+    if (moved > 1e-9) ++placed.strands_moved;
+    placed.largest_move_m = std::max(placed.largest_move_m, moved);
+    for (int i = begin + 1; i < end; ++i)
+      placed.particles_inside +=
+          (groom->points[i] - head.center_m).cwiseQuotient(head.radii_m).squaredNorm() < 1.0;
+  }
+  return placed;
 }
 
 }  // namespace wet_curly_hair

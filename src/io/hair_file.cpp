@@ -691,6 +691,10 @@ bool checkImportOptions(const HairImportOptions& opts, std::string* error) {
   } else if (!(opts.min_edge_m >= 0.0) || !std::isfinite(opts.min_edge_m)) {
     m << "import option min_edge_m is " << opts.min_edge_m
       << ": must be 0 (off) or a finite length > 0, m";
+  } else if (opts.roots_on_scalp &&
+             (!opts.scalp.center_m.allFinite() || !opts.scalp.radii_m.allFinite() ||
+              !(opts.scalp.radii_m.minCoeff() > 0.0))) {
+    m << "import option scalp (with roots_on_scalp) needs a finite centre and finite radii > 0, m";
   } else if (opts.resample_edge_m > 0.0 && opts.resample_particles > 0) {
     m << "import options resample_particles (" << opts.resample_particles
       << ") and resample_edge_m (" << opts.resample_edge_m
@@ -714,6 +718,16 @@ std::string HairImportReport::warning() const {
     m << (k > 0 ? ", " : "") << "strand " << skipped[k].index << " (" << skipped[k].reason << ")";
   }
   if (skipped.size() > named) m << ", and " << skipped.size() - named << " more";
+  return m.str();
+}
+
+std::string HairImportReport::scalpSummary() const {
+  const ScalpPlacement& p = scalp_placement;
+  if (p.strands_moved == 0) return "";
+  std::ostringstream m;
+  m << "roots_on_scalp moved " << p.strands_moved << " of " << strands_imported
+    << " strands onto the head's ellipsoid, the farthest by " << metres(p.largest_move_m) << "; "
+    << p.particles_inside << " particles start inside it (the first step pushes them out)";
   return m.str();
 }
 
@@ -756,6 +770,7 @@ bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, 
                         " strands can be simulated: " + r.warning());
     return false;
   }
+  if (opts.roots_on_scalp) r.scalp_placement = placeRootsOnScalp(opts.scalp, &g);
   if (!g.validate(&why)) {  // Safety net: the checks above should already guarantee this.
     setError(error, "imported groom is invalid: " + why);
     return false;

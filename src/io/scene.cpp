@@ -144,7 +144,7 @@ void addHairContactParameters(HairContactConfig* hc_config, std::vector<ParamRef
 /// The groom and groom_file rows of parameterTable.
 void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   std::vector<ParamRef>& t = *table;
-  const Rows d{&t}, i{&t}, str{&t};
+  const Rows d{&t}, i{&t}, str{&t}, b{&t};
   GroomConfig& g = s->groom;
   i("groom.strands", &g.strands, "number of generated strands", true);
   i("groom.particles", &g.particles, "particles per strand, root included", true);
@@ -173,6 +173,8 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   d("groom_file.min_edge_m", &gf.min_edge_m,
     "shortest edge kept: finer strands are resampled, strands under two edges skipped, m (0: off)",
     true);
+  b("groom_file.roots_on_scalp", &gf.roots_on_scalp,
+    "move each strand rigidly so that its root lies on the head's ellipsoid", true);
 }
 
 /// The water rows of parameterTable (docs/water.md).

@@ -34,6 +34,8 @@ bool makeGroom(const SceneConfig& scene, Groom* groom, std::string* why, HairImp
   options.resample_edge_m = scene.groom_file.resample_edge_m;
   options.min_edge_m = scene.groom_file.min_edge_m;
   options.head_center_m = scene.head.ellipsoid.center_m;
+  options.roots_on_scalp = scene.groom_file.roots_on_scalp;
+  options.scalp = scene.head.ellipsoid;
   Groom imported;
   HairImportReport imported_report;
   if (!importHairAsGroom(data, options, &imported, &inner, &imported_report)) {

@@ -85,6 +85,7 @@ void WetCurlyHairNode::init() {
     throw std::runtime_error("cannot build the hair model of the " + scene_source_ + ": " + why);
   strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
   if (strands_skipped_ > 0) ROS_WARN("groom_file.file: %s", report.warning().c_str());
+  if (!report.scalpSummary().empty()) ROS_INFO("groom_file.%s", report.scalpSummary().c_str());
   frame_ns_ = std::llround(1e9 / config_.publish_rate);
   frame_s_ = frame_ns_ * 1e-9;
   obstacles_.analytic = scene_.obstacles;
@@ -983,6 +984,7 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     model_ = std::move(model);
     if (rebuild) {
       strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
+      if (!report.scalpSummary().empty()) ROS_INFO("groom_file.%s", report.scalpSummary().c_str());
       resetHairLocked(head_pose_, "parameters changed the model");
     }
   }

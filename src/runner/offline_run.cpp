@@ -59,6 +59,9 @@ std::string RunSummary::toJson() const {
   o.add("strands", strands)
       .add("guide_strands", guide_strands)
       .add("strands_skipped", strands_skipped)
+      .add("roots_moved", roots_moved)
+      .add("root_move_max_m", root_move_max_m)
+      .add("particles_inside_scalp", particles_inside_scalp)
       .add("bend_stabilized_strands", bend_stabilized_strands)
       .add("particles", particles)
       .add("steps", static_cast<unsigned long long>(steps))
@@ -796,6 +799,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   if (!import_report.skipped.empty())
     std::fprintf(stderr, "groom_file.file: %s: %s\n", scene.groom_file.file.c_str(),
                  import_report.warning().c_str());
+  if (!import_report.scalpSummary().empty())
+    std::fprintf(stderr, "groom_file.%s\n", import_report.scalpSummary().c_str());
   std::vector<RunOptions::SaturationEvent> events;
   if (!checkOptions(options, model, &events, why)) return false;
   RunSummary s = startSummary(scene, options, rss_start_kb);
@@ -811,6 +816,9 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.strands = model.strandCount();
   s.guide_strands = model.simulatedStrandCount();
   s.strands_skipped = static_cast<int>(import_report.skipped.size());
+  s.roots_moved = import_report.scalp_placement.strands_moved;
+  s.root_move_max_m = import_report.scalp_placement.largest_move_m;
+  s.particles_inside_scalp = import_report.scalp_placement.particles_inside;
   s.bend_stabilized_strands = model.bend_stabilized_strands;
   s.particles = model.particleCount();
   s.substep_s = frame / substepCount(scene.solver, frame);

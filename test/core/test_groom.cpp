@@ -136,3 +136,105 @@ TEST(Groom, HelixAngleStepGivesTheChord) {
     }
   }
 }
+
+TEST(Groom, NearestEllipsoidPointOnASphereIsRadial) {
+  EllipsoidShape sphere;
+  sphere.center_m = Vec3(0.01, -0.02, 0.03);
+  sphere.radii_m = Vec3::Constant(0.1);
+  for (const Vec3& d : {Vec3(1, 0, 0), Vec3(0.3, -0.5, 0.8), Vec3(-0.2, 0.1, -1.0)}) {
+    for (double k : {0.2, 0.9, 1.0, 1.3, 5.0}) {
+      const Vec3 x = sphere.center_m + 0.1 * k * d.normalized();
+      const Vec3 p = nearestEllipsoidPoint(sphere, x);
+      EXPECT_LT((p - (sphere.center_m + 0.1 * d.normalized())).norm(), 1e-15 + 1e-13 * k)
+          << "k " << k;
+    }
+  }
+  // The centre, where every direction is nearest: a surface point all the same.
+  EXPECT_NEAR((nearestEllipsoidPoint(sphere, sphere.center_m) - sphere.center_m).norm(), 0.1,
+              1e-15);
+}
+
+TEST(Groom, NearestEllipsoidPointIsNoFartherThanAnySampledSurfacePoint) {
+  // The head's ellipsoid, points 3 cm inside to 3 cm outside: the answer lies on the surface and
+  // is at least as near as the nearest of 720 x 360 surface points sampled by angle (an
+  // independent reference that is never nearer than the truth).
+  EllipsoidShape head;
+  head.center_m = Vec3(0.0, 0.005, 0.01);
+  const int nu = 720, nv = 360;
+  Vec3List surface;
+  for (int j = 0; j <= nv; ++j)
+    for (int i = 0; i < nu; ++i) {
+      const double v = M_PI * j / nv, u = 2.0 * M_PI * i / nu;
+      const Vec3 unit(std::sin(v) * std::cos(u), std::sin(v) * std::sin(u), std::cos(v));
+      surface.push_back(head.center_m + head.radii_m.cwiseProduct(unit));
+    }
+  const Vec3 dirs[] = {Vec3(1, 0.2, 0.4), Vec3(-0.3, 0.9, 0.1), Vec3(0.1, -0.2, 1.0),
+                       Vec3(-1, -1, -0.5), Vec3(0.05, 1.0, -0.02)};
+  int checked = 0;
+  for (const Vec3& d : dirs) {
+    const Vec3 on = nearestEllipsoidPoint(head, head.center_m + d);  // a surface point
+    const Vec3 n =
+        (on - head.center_m).cwiseQuotient(head.radii_m.cwiseProduct(head.radii_m)).normalized();
+    for (double offset : {-0.03, -0.01, -0.002, 0.0, 0.004, 0.03}) {
+      const Vec3 x = on + offset * n;
+      const Vec3 p = nearestEllipsoidPoint(head, x);
+      EXPECT_NEAR((p - head.center_m).cwiseQuotient(head.radii_m).norm(), 1.0, 1e-12);
+      double sampled = INFINITY;
+      for (const Vec3& q : surface) sampled = std::min(sampled, (q - x).norm());
+      EXPECT_LE((p - x).norm(), sampled + 1e-12) << "offset " << offset;
+      // Along the normal of a convex surface, the point the normal starts from is the nearest
+      // (outside always; inside while the offset stays below the curvature radius, 4 cm here).
+      EXPECT_NEAR((p - x).norm(), std::abs(offset), 1e-9) << "offset " << offset;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 30);
+}
+
+TEST(Groom, RootsOnTheScalpMoveEachStrandRigidly) {
+  EllipsoidShape head;
+  GroomConfig c;
+  c.strands = 6;
+  c.particles = 10;
+  Groom g = generateGroom(c, head);
+  // Strand 0 sunk 1 cm into the head along its normal, strand 1 lifted 2 cm off it, strand 2
+  // shifted sideways: the others stay where they are.
+  const Vec3 moves[3] = {-0.01 * g.root_normals[0], 0.02 * g.root_normals[1],
+                         Vec3(0.0, 0.003, -0.001)};
+  const Groom authored = g;
+  for (int s = 0; s < 3; ++s)
+    for (uint32_t i = g.strand_offsets[s]; i < g.strand_offsets[s + 1]; ++i)
+      g.points[i] += moves[s];
+  Groom placed_groom = g;
+  const ScalpPlacement placed = placeRootsOnScalp(head, &placed_groom);
+  EXPECT_EQ(placed.strands_moved, 3);
+  EXPECT_NEAR(placed.largest_move_m, 0.02, 1e-12);
+  EXPECT_EQ(placed.particles_inside, 0);
+  std::string why;
+  ASSERT_TRUE(placed_groom.validate(&why)) << why;
+  for (int s = 0; s < g.strandCount(); ++s) {
+    const uint32_t b = g.strand_offsets[s];
+    Vec3 n;
+    EXPECT_NEAR(ellipsoidDistance(head, placed_groom.points[b], &n), 0.0, 1e-12);
+    EXPECT_LT((placed_groom.root_normals[s] - n).norm(), 1e-12);
+    for (uint32_t i = b; i < g.strand_offsets[s + 1]; ++i) {
+      // The shape is kept: every point relative to its root as authored.
+      EXPECT_LT(
+          ((placed_groom.points[i] - placed_groom.points[b]) - (g.points[i] - g.points[b])).norm(),
+          1e-15);
+      // The sunk and lifted strands go back along their normals to where they were generated.
+      if (s != 2) {
+        EXPECT_LT((placed_groom.points[i] - authored.points[i]).norm(), 1e-12);
+      }
+    }
+  }
+  // A strand lying along the scalp, sunk into it, keeps particles inside: counted, not moved.
+  Groom flat;
+  flat.points = {Vec3(0.0, 0.0, 0.10), Vec3(0.01, 0.0, 0.1095), Vec3(0.06, 0.0, 0.075)};
+  flat.strand_offsets = {0, 3};
+  flat.root_normals = {Vec3::UnitZ()};
+  const ScalpPlacement on_flat = placeRootsOnScalp(head, &flat);
+  EXPECT_EQ(on_flat.strands_moved, 1);
+  EXPECT_NEAR(on_flat.largest_move_m, 0.01, 1e-12);
+  EXPECT_EQ(on_flat.particles_inside, 1);  // (0.01, 0, 0.1195) is outside, (0.06, 0, 0.085) in
+}

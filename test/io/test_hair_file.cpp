@@ -613,6 +613,39 @@ TEST(HairImport, ScaleAxisOffsetAndRootNormals) {
   EXPECT_TRUE(g.root_normals[0].isApprox(Vec3(0.01, 0, -0.05).normalized()));
 }
 
+TEST(HairImport, RootsOnTheScalpMoveEachStrandOntoTheHeadAndSaySo) {
+  // Two strands in cm, y up, authored on a head 1 cm smaller: both roots 1 cm inside a sphere
+  // of radius 10 cm, one on top and one in front.
+  HairFileData file;
+  file.strand_offsets = {0, 3, 6};
+  file.points = {0, 9, 0, 0, 12, 1,  0, 15, 2,    // on top, rising and leaning forward
+                 0, 0, 9, 0, -2, 11, 0, -4, 13};  // in front, hanging down and forward
+  HairImportOptions opts;
+  opts.scale = 0.01;
+  opts.up = UpAxis::kYUp;
+  opts.scalp.radii_m = Vec3::Constant(0.1);
+  Groom as_authored, placed;
+  std::string error;
+  HairImportReport report;
+  ASSERT_TRUE(importHairAsGroom(file, opts, &as_authored, &error, &report)) << error;
+  EXPECT_EQ(report.scalp_placement.strands_moved, 0);
+  EXPECT_EQ(report.scalpSummary(), "");
+  opts.roots_on_scalp = true;
+  ASSERT_TRUE(importHairAsGroom(file, opts, &placed, &error, &report)) << error;
+  EXPECT_EQ(report.scalp_placement.strands_moved, 2);
+  EXPECT_NEAR(report.scalp_placement.largest_move_m, 0.01, 1e-9);
+  EXPECT_EQ(report.scalp_placement.particles_inside, 0);
+  EXPECT_NE(report.scalpSummary().find("moved 2 of 2 strands"), std::string::npos)
+      << report.scalpSummary();
+  // Radially out by 1 cm (y up: the top root is +z, the front one +x), shapes kept.
+  const Vec3 moves[2] = {Vec3(0, 0, 0.01), Vec3(0.01, 0, 0)};
+  for (int s = 0; s < 2; ++s) {
+    EXPECT_TRUE(placed.root_normals[s].isApprox(moves[s] / 0.01)) << placed.root_normals[s];
+    for (int i = 3 * s; i < 3 * s + 3; ++i)
+      EXPECT_LT((placed.points[i] - (as_authored.points[i] + moves[s])).norm(), 1e-12);
+  }
+}
+
 TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
   HairFileData file = makeSmall(Parts());
   Groom original;
@@ -647,6 +680,16 @@ TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
   o.resample_edge_m = 0.01;
   o.resample_particles = 8;
   cases.push_back({"both resamplings", file, o, "resample_particles (8) and resample_edge_m"});
+  for (const Vec3& radii : {Vec3(0.1, 0.0, 0.1), Vec3(0.1, -0.1, 0.1), Vec3(0.1, NAN, 0.1)}) {
+    o = HairImportOptions();
+    o.roots_on_scalp = true;
+    o.scalp.radii_m = radii;
+    cases.push_back({"scalp radii", file, o, "scalp (with roots_on_scalp)"});
+  }
+  o = HairImportOptions();
+  o.roots_on_scalp = true;
+  o.scalp.center_m.z() = INFINITY;
+  cases.push_back({"scalp centre", file, o, "scalp (with roots_on_scalp)"});
   {
     // Skipped strands never refuse a groom, but a file with no strand left is refused.
     HairFileData f = file;

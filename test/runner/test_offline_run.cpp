@@ -199,18 +199,27 @@ TEST(OfflineRun, BadSceneIsRefused) {
   EXPECT_NE(why.find("/nonexistent/hair.hair"), std::string::npos);
 }
 
-TEST(OfflineRun, RealHairFromAnotherTool) {
-  // sintel_lite.hair: 228 strands, Blender units (scale 0.01 to metres), y up.
-  const std::string path = WCH_SOURCE_DIR "/../shared/data/sintel_lite.hair";
-  struct stat st;
-  ASSERT_EQ(stat(path.c_str(), &st), 0)
-      << path << " not present (shared/data/ lies beside the package)";
+namespace {
+
+/// The built-in scene with sintel_lite.hair (228 strands, Blender units: scale 0.01 to metres,
+/// y up) as its groom, moved down onto the built-in head, 24 particles per strand.
+SceneConfig sintelOnTheBuiltInHead() {
   SceneConfig scene = builtinScene();
-  scene.groom_file.file = path;
+  scene.groom_file.file = WCH_SOURCE_DIR "/../shared/data/sintel_lite.hair";
   scene.groom_file.scale = 0.01;
   scene.groom_file.up_axis = "y";
   scene.groom_file.offset_m = Vec3(0.0, 0.0, -0.35);
   scene.groom_file.resample_particles = 24;
+  return scene;
+}
+
+}  // namespace
+
+TEST(OfflineRun, RealHairFromAnotherTool) {
+  SceneConfig scene = sintelOnTheBuiltInHead();
+  struct stat st;
+  ASSERT_EQ(stat(scene.groom_file.file.c_str(), &st), 0)
+      << scene.groom_file.file << " not present (shared/data/ lies beside the package)";
   scene.solver.collision.head_enabled = false;  // the Sintel head is not our ellipsoid
   scene.run.seconds = 0.25;
   RunSummary s;
@@ -219,6 +228,36 @@ TEST(OfflineRun, RealHairFromAnotherTool) {
   EXPECT_EQ(s.strands, 228);
   EXPECT_EQ(s.particles, 228 * 24);
   EXPECT_TRUE(s.finite);
+}
+
+TEST(OfflineRun, RealHairFromAnotherHeadSitsOnThisOneWithRootsOnTheScalp) {
+  // Sintel's groom on the built-in head, its collision on: Sintel's roots lie from about 1 cm
+  // inside the ellipsoid to 2 cm outside it. The kinematic roots inside hold each strand's first
+  // edge against the head's projection; moved onto the scalp, nothing is held inside.
+  SceneConfig scene = sintelOnTheBuiltInHead();
+  struct stat st;
+  ASSERT_EQ(stat(scene.groom_file.file.c_str(), &st), 0)
+      << scene.groom_file.file << " not present (shared/data/ lies beside the package)";
+  scene.run.seconds = 0.25;
+  const RunOptions options;
+  RunSummary as_authored, on_scalp;
+  std::string why;
+  ASSERT_TRUE(runScene(scene, options, &as_authored, &why)) << why;
+  scene.groom_file.roots_on_scalp = true;
+  ASSERT_TRUE(runScene(scene, options, &on_scalp, &why)) << why;
+  EXPECT_EQ(as_authored.roots_moved, 0);
+  EXPECT_EQ(on_scalp.roots_moved, 228);
+  EXPECT_GT(on_scalp.root_move_max_m, 0.005);
+  // As authored, roots sit 1 cm inside the head and the first edges are stretched to the limit.
+  const double offset = scene.solver.collision.offset_m, limit = scene.solver.stretch.strain_limit;
+  EXPECT_GT(as_authored.max_head_penetration_after_first_step_m, 5.0 * offset);
+  EXPECT_GE(as_authored.max_strain_end, limit * (1.0 - 1e-9));
+  // On the scalp: no particle deeper than the collision's offset after the first step, and no
+  // edge held at the strain limit.
+  EXPECT_LT(on_scalp.max_head_penetration_after_first_step_m, offset);
+  EXPECT_LT(on_scalp.max_strain_end, 0.5 * limit);
+  EXPECT_TRUE(on_scalp.finite);
+  EXPECT_EQ(on_scalp.repairs, 0);
 }
 
 #include <octomap/octomap.h>

@@ -62,6 +62,29 @@ struct GroomConfig {
 /// lengths. Deterministic for a given config.
 Groom generateGroom(const GroomConfig& config, const EllipsoidShape& head);
 
+/// The point of the ellipsoid's surface nearest x, inside or outside (Eberly, "Distance from a
+/// point to an ellipse, an ellipsoid, or a hyperellipsoid"): componentwise p = c + r^2 (x - c) /
+/// (r^2 + t), t the root of F(t) = sum_i (r_i (x - c)_i / (r_i^2 + t))^2 - 1, which decreases
+/// over t > -r_min^2, found by bisection (t > 0 outside, t < 0 inside). Where that root does not
+/// exist (a point inside with no component along the shortest axis, or the centre) the point is
+/// taken along the ray from the centre instead.
+Vec3 nearestEllipsoidPoint(const EllipsoidShape& e, const Vec3& x);
+
+/// What placeRootsOnScalp did.
+struct ScalpPlacement {
+  int strands_moved = 0;        ///< strands whose root moved by more than 1 nm.
+  double largest_move_m = 0.0;  ///< the longest move of a root, m.
+  int particles_inside = 0;     ///< non-root particles inside the ellipsoid after the moves.
+};
+
+/// Moves every strand rigidly (each of its points by one vector) so that its root lies on the
+/// head's surface point nearest it (nearestEllipsoidPoint), as the generator's roots do, and sets
+/// its root normal to the surface normal there. For a groom authored on another head: roots
+/// inside the head hold the strand's first edge against the head's collision, and roots above it
+/// float. Particles left inside after the move are counted, not moved (the first step's collision
+/// pushes them out).
+ScalpPlacement placeRootsOnScalp(const EllipsoidShape& head, Groom* groom);
+
 /// Mean edge length for a helix of radius r and rise per turn `pitch` sampled at equal chords of
 /// length `edge`: solves l^2 = 4 r^2 sin^2(dt/2) + (pitch/2pi)^2 dt^2 for the angle step dt by
 /// bisection (docs/physics.md A9). Returns dt in (0, pi]; requires edge > 0.

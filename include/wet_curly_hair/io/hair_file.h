@@ -142,6 +142,11 @@ struct HairImportOptions {
   /// Head centre in the output frame, m: root normals are normalize(root - head_center_m) (or the
   /// direction of the strand's first edge when the root is at the head centre).
   Vec3 head_center_m = Vec3::Zero();
+  /// Whether each strand is then moved rigidly so that its root lies on `scalp`, its root normal
+  /// the scalp's normal there (placeRootsOnScalp): for a groom authored on another head, whose
+  /// roots would otherwise lie inside this one or float above it.
+  bool roots_on_scalp = false;
+  EllipsoidShape scalp;  ///< the head's ellipsoid in the output frame, with roots_on_scalp.
 };
 
 /// Shortest distance between two kept consecutive points of an imported strand, m (after
@@ -176,19 +181,25 @@ struct HairImportReport {
   int strands_imported = 0;
   int repeated_points_dropped = 0;  ///< consecutive repeats removed from the imported strands.
   std::vector<SkippedStrand> skipped;
+  /// With HairImportOptions::roots_on_scalp: the strands moved, the longest move and the
+  /// particles left inside the scalp's ellipsoid (all 0 without it).
+  ScalpPlacement scalp_placement;
   /// One warning naming the skipped strands (the first kHairMaxNamedSkips with their reason,
   /// then "and N more"), or "" when none was skipped.
   std::string warning() const;
+  /// What roots_on_scalp did, in a sentence ("" when no root moved).
+  std::string scalpSummary() const;
 };
 
 /// Imports `file` as a Groom: p_head = scale * upAxisRotation(up) * p_file + offset_m, then the
-/// optional resampling. A strand that cannot be simulated is skipped and recorded in `*report`
-/// (when non-null), never a reason to refuse the groom: fewer than kHairMinStrandPoints points in
-/// the file, a non-finite point (in the file or after scaling), an arc length below
-/// kHairMinStrandLengthM, fewer than kHairMinStrandPoints distinct points once repeats (points
-/// within kHairRepeatPointM of the previous kept one) are dropped, or a resampling that fails.
-/// Refuses invalid options, data that validateHairData rejects, and a file none of whose strands
-/// can be imported (the message names why); the result passes Groom::validate. On failure
+/// optional resampling, then with roots_on_scalp each strand moved onto the scalp. A strand that
+/// cannot be simulated is skipped and recorded in `*report` (when non-null), never a reason to
+/// refuse the groom: fewer than kHairMinStrandPoints points in the file, a non-finite point (in the
+/// file or after scaling), an arc length below kHairMinStrandLengthM, fewer than
+/// kHairMinStrandPoints distinct points once repeats (points within kHairRepeatPointM of the
+/// previous kept one) are dropped, or a resampling that fails. Refuses invalid options, data that
+/// validateHairData rejects, and a file none of whose strands can be imported (the message names
+/// why); the result passes Groom::validate. On failure
 /// `*groom` and `*report` are unchanged.
 bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, Groom* groom,
                        std::string* error, HairImportReport* report = nullptr);

@@ -31,6 +31,9 @@ struct GroomFileConfig {
   /// fewer particles (unless resample_* is set), and a strand shorter than two such edges is
   /// skipped as too short to bend (HairImportOptions::min_edge_m).
   double min_edge_m = 0.001;
+  /// Each strand moved rigidly so that its root lies on the head's ellipsoid (for a groom authored
+  /// on another head; HairImportOptions::roots_on_scalp).
+  bool roots_on_scalp = false;
 };
 
 /// Initial saturation: a root-to-tip ramp on every strand (scene section `saturation`).

@@ -87,6 +87,11 @@ struct RunSummary {
   int strands = 0;          ///< output strands (guides and followers).
   int guide_strands = 0;    ///< strands simulated (groom.follow_ratio; all of them at 1).
   int strands_skipped = 0;  ///< strands of the groom file not simulated (HairImportReport).
+  /// With groom_file.roots_on_scalp: strands moved onto the scalp, the longest move (m) and the
+  /// non-root particles left inside the head's ellipsoid (HairImportReport::scalp_placement).
+  int roots_moved = 0;
+  double root_move_max_m = 0.0;
+  int particles_inside_scalp = 0;
   /// Strands too coarse for the configured alpha_b or c_b, raised to the flutter bounds
   /// (HairModel::bend_stabilized_strands).
   int bend_stabilized_strands = 0;
