@@ -337,7 +337,7 @@ WCH_INLINE CarryQuad loadTriple(const double* a) { return CarryQuad{a[0], a[1], 
 /// from the thread's StrandScratch::lane_buffer: the positions from interpolateFromGuides (head
 /// frame), the least guide edge ratio at each particle's samples, the rest length of the edge
 /// that ends at the particle and the head offset of the particle (the solver's: never pushed
-/// farther out than its rest distance).
+/// farther out than its rest distance, nor left inside the head).
 struct FollowerColumns {
   FollowerLane *x, *y, *z;  ///< the coordinates apart: a copy of a whole V3 went through memory
   FollowerLane* least_ratio;
@@ -460,8 +460,10 @@ FollowerInGroup startFollower(const PlacementFrame& frame, int s, int l, const F
   const double head_offset = frame.config.collision.offset_m;
   for (int i = 1; i < f.n; ++i) {
     setLaneValue(&c.rest_length[i], l, model.rest_edge_m[f.begin + i - 1]);
+    // The solver's rule (collideHeadParticles): a particle authored inside the head is pushed to
+    // its surface, not left at its rest depth.
     setLaneValue(&c.head_offset[i], l,
-                 std::min(head_offset, model.rest_head_distance_m[f.begin + i]));
+                 std::min(head_offset, std::max(0.0, model.rest_head_distance_m[f.begin + i])));
   }
   return f;
 }

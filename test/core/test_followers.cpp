@@ -473,7 +473,8 @@ TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
   for (int st = m.followers.guide_strands; st < m.strandCount(); ++st) {
     for (int i = m.strandBegin(st) + 1; i < m.strandBegin(st) + m.strandSize(st); ++i) {
       Vec3 normal;
-      const double offset = std::min(c.collision.offset_m, m.rest_head_distance_m[i]);
+      const double offset =
+          std::min(c.collision.offset_m, std::max(0.0, m.rest_head_distance_m[i]));
       EXPECT_GE(m.head.distance(s.position[i], &normal), offset - round_off) << i;
       // The sphere sits 2 cm above the scalp: its projection cannot push into the head.
       const double to_sphere = obstacles.distance(s.position[i], &normal);
@@ -484,6 +485,36 @@ TEST(Followers, FollowersEndOutsideTheHeadAndTheObstacles) {
   }
   EXPECT_GT(inside_unprojected, 0) << "nothing to project: the test proves nothing";
   EXPECT_GT(near_sphere, 0) << "the sphere is out of reach: the test proves nothing";
+}
+
+TEST(Followers, AParticleAuthoredInsideTheHeadEndsOnItsSurfaceAsInTheSolver) {
+  // A groom from another head: particles 1-3 of every strand authored 4 mm under the scalp. The
+  // solver pushes a guide's to the surface (its offset min(delta, max(0, rest distance))); a
+  // follower's placement must do the same, not leave it at its rest depth.
+  Groom g = curlyGroom(120);
+  for (int s = 0; s < g.strandCount(); ++s)
+    for (uint32_t i = g.strand_offsets[s] + 1; i <= g.strand_offsets[s] + 3; ++i) {
+      Vec3 normal;
+      const double d = ellipsoidDistance(EllipsoidShape(), g.points[i], &normal);
+      g.points[i] -= (d + 0.004) * normal;
+    }
+  const SolverConfig c;
+  const HairModel m = followerModel(g, 4, c);
+  int authored_inside = 0;
+  for (int i = 0; i < m.particleCount(); ++i) authored_inside += m.rest_head_distance_m[i] < 0.0;
+  ASSERT_GE(authored_inside, 3 * 120) << "nothing authored inside: the test proves nothing";
+  const Pose pose;
+  HairState s = makeState(m, pose, Twist());
+  step(m, c, StepInputs{pose, pose, nullptr}, kFrame, &s, nullptr);
+  const double round_off = placementRoundOff(s, pose);
+  for (int st = 0; st < m.strandCount(); ++st) {
+    const bool guide = st < m.followers.guide_strands;
+    for (int i = m.strandBegin(st) + 1; i < m.strandBegin(st) + m.strandSize(st); ++i) {
+      Vec3 normal;
+      EXPECT_GE(m.head.distance(s.position[i], &normal), guide ? -1e-12 : -round_off)
+          << (guide ? "guide" : "follower") << " particle " << i;
+    }
+  }
 }
 
 TEST(Followers, FollowerEdgesKeepTheStrainLimitAndTheirGuidesLengths) {
