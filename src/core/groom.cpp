@@ -271,6 +271,19 @@ Vec3 nearestEllipsoidPoint(const EllipsoidShape& e, const Vec3& x) {
   return pointAt(0.5 * (lo + hi));
 }
 
+RootsInside rootsInside(const EllipsoidShape& head, const Groom& groom, double tolerance_m) {
+  RootsInside inside;
+  for (int s = 0; s < groom.strandCount(); ++s) {
+    const Vec3& root = groom.points[groom.strand_offsets[s]];
+    if ((root - head.center_m).cwiseQuotient(head.radii_m).squaredNorm() >= 1.0) continue;
+    const double depth = (nearestEllipsoidPoint(head, root) - root).norm();
+    if (!(depth > tolerance_m)) continue;
+    ++inside.count;
+    inside.deepest_m = std::max(inside.deepest_m, depth);
+  }
+  return inside;
+}
+
 ScalpPlacement placeRootsOnScalp(const EllipsoidShape& head, Groom* groom) {
   ScalpPlacement placed;
   const Vec3 inv_r2 = head.radii_m.cwiseProduct(head.radii_m).cwiseInverse();

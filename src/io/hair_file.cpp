@@ -691,10 +691,9 @@ bool checkImportOptions(const HairImportOptions& opts, std::string* error) {
   } else if (!(opts.min_edge_m >= 0.0) || !std::isfinite(opts.min_edge_m)) {
     m << "import option min_edge_m is " << opts.min_edge_m
       << ": must be 0 (off) or a finite length > 0, m";
-  } else if (opts.roots_on_scalp &&
-             (!opts.scalp.center_m.allFinite() || !opts.scalp.radii_m.allFinite() ||
-              !(opts.scalp.radii_m.minCoeff() > 0.0))) {
-    m << "import option scalp (with roots_on_scalp) needs a finite centre and finite radii > 0, m";
+  } else if (!opts.scalp.center_m.allFinite() || !opts.scalp.radii_m.allFinite() ||
+             !(opts.scalp.radii_m.minCoeff() > 0.0)) {
+    m << "import option scalp needs a finite centre and finite radii > 0, m";
   } else if (opts.resample_edge_m > 0.0 && opts.resample_particles > 0) {
     m << "import options resample_particles (" << opts.resample_particles
       << ") and resample_edge_m (" << opts.resample_edge_m
@@ -728,6 +727,16 @@ std::string HairImportReport::scalpSummary() const {
   m << "roots_on_scalp moved " << p.strands_moved << " of " << strands_imported
     << " strands onto the head's ellipsoid, the farthest by " << metres(p.largest_move_m) << "; "
     << p.particles_inside << " particles start inside it (the first step pushes them out)";
+  return m.str();
+}
+
+std::string HairImportReport::rootsInsideWarning() const {
+  if (roots_inside.count == 0) return "";
+  std::ostringstream m;
+  m << roots_inside.count << " of " << strands_imported
+    << " roots lie inside the head's ellipsoid, the deepest by " << metres(roots_inside.deepest_m)
+    << ": each holds its strand's first edge against the head; roots_on_scalp: true moves every "
+       "strand onto the scalp";
   return m.str();
 }
 
@@ -771,6 +780,7 @@ bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, 
     return false;
   }
   if (opts.roots_on_scalp) r.scalp_placement = placeRootsOnScalp(opts.scalp, &g);
+  r.roots_inside = rootsInside(opts.scalp, g, kHairRootInsideM);
   if (!g.validate(&why)) {  // Safety net: the checks above should already guarantee this.
     setError(error, "imported groom is invalid: " + why);
     return false;

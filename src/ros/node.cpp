@@ -22,6 +22,15 @@ using io::ParamRef;
 
 namespace {
 
+/// What the groom's import said, logged: strands skipped and roots inside the head as warnings,
+/// the roots moved onto the scalp as information.
+void logImportReport(const io::HairImportReport& report) {
+  if (!report.skipped.empty()) ROS_WARN("groom_file.file: %s", report.warning().c_str());
+  if (!report.rootsInsideWarning().empty())
+    ROS_WARN("groom_file.file: %s", report.rootsInsideWarning().c_str());
+  if (!report.scalpSummary().empty()) ROS_INFO("groom_file.%s", report.scalpSummary().c_str());
+}
+
 double wallSince(const std::chrono::steady_clock::time_point& t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -84,8 +93,7 @@ void WetCurlyHairNode::init() {
   if (!io::buildSceneModel(scene_, &model_, &why, &report))
     throw std::runtime_error("cannot build the hair model of the " + scene_source_ + ": " + why);
   strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
-  if (strands_skipped_ > 0) ROS_WARN("groom_file.file: %s", report.warning().c_str());
-  if (!report.scalpSummary().empty()) ROS_INFO("groom_file.%s", report.scalpSummary().c_str());
+  logImportReport(report);
   frame_ns_ = std::llround(1e9 / config_.publish_rate);
   frame_s_ = frame_ns_ * 1e-9;
   obstacles_.analytic = scene_.obstacles;
@@ -939,7 +947,7 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     res.message = "refused, nothing changed: the hair model cannot be rebuilt: " + why;
     return true;
   }
-  if (rebuild && !report.skipped.empty()) ROS_WARN("groom_file.file: %s", report.warning().c_str());
+  if (rebuild) logImportReport(report);
   if (!rebuild) {
     // Stiffness, damping and curl weight live in the model as per-edge constants, and the new
     // constants (or a new substep) may put the explicit substep past its stability bound:
@@ -984,7 +992,6 @@ bool WetCurlyHairNode::onSetParameters(SetParameters::Request& req, SetParameter
     model_ = std::move(model);
     if (rebuild) {
       strands_skipped_ = static_cast<uint32_t>(report.skipped.size());
-      if (!report.scalpSummary().empty()) ROS_INFO("groom_file.%s", report.scalpSummary().c_str());
       resetHairLocked(head_pose_, "parameters changed the model");
     }
   }

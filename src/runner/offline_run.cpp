@@ -62,6 +62,8 @@ std::string RunSummary::toJson() const {
       .add("roots_moved", roots_moved)
       .add("root_move_max_m", root_move_max_m)
       .add("particles_inside_scalp", particles_inside_scalp)
+      .add("roots_inside_scalp", roots_inside_scalp)
+      .add("deepest_root_m", deepest_root_m)
       .add("bend_stabilized_strands", bend_stabilized_strands)
       .add("particles", particles)
       .add("steps", static_cast<unsigned long long>(steps))
@@ -801,6 +803,9 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
                  import_report.warning().c_str());
   if (!import_report.scalpSummary().empty())
     std::fprintf(stderr, "groom_file.%s\n", import_report.scalpSummary().c_str());
+  if (!import_report.rootsInsideWarning().empty())
+    std::fprintf(stderr, "groom_file.file: %s: %s\n", scene.groom_file.file.c_str(),
+                 import_report.rootsInsideWarning().c_str());
   std::vector<RunOptions::SaturationEvent> events;
   if (!checkOptions(options, model, &events, why)) return false;
   RunSummary s = startSummary(scene, options, rss_start_kb);
@@ -819,6 +824,8 @@ bool runScene(const SceneConfig& scene, const RunOptions& options, RunSummary* o
   s.roots_moved = import_report.scalp_placement.strands_moved;
   s.root_move_max_m = import_report.scalp_placement.largest_move_m;
   s.particles_inside_scalp = import_report.scalp_placement.particles_inside;
+  s.roots_inside_scalp = import_report.roots_inside.count;
+  s.deepest_root_m = import_report.roots_inside.deepest_m;
   s.bend_stabilized_strands = model.bend_stabilized_strands;
   s.particles = model.particleCount();
   s.substep_s = frame / substepCount(scene.solver, frame);

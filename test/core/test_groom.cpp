@@ -191,12 +191,21 @@ TEST(Groom, NearestEllipsoidPointIsNoFartherThanAnySampledSurfacePoint) {
   EXPECT_EQ(checked, 30);
 }
 
-TEST(Groom, RootsOnTheScalpMoveEachStrandRigidly) {
-  EllipsoidShape head;
+namespace {
+
+/// A generated groom of `strands` x `particles` on the default head.
+Groom generatedGroom(int strands, int particles) {
   GroomConfig c;
-  c.strands = 6;
-  c.particles = 10;
-  Groom g = generateGroom(c, head);
+  c.strands = strands;
+  c.particles = particles;
+  return generateGroom(c, EllipsoidShape());
+}
+
+}  // namespace
+
+TEST(Groom, RootsOnTheScalpMoveEachStrandRigidly) {
+  const EllipsoidShape head;
+  Groom g = generatedGroom(6, 10);
   // Strand 0 sunk 1 cm into the head along its normal, strand 1 lifted 2 cm off it, strand 2
   // shifted sideways: the others stay where they are.
   const Vec3 moves[3] = {-0.01 * g.root_normals[0], 0.02 * g.root_normals[1],
@@ -237,4 +246,19 @@ TEST(Groom, RootsOnTheScalpMoveEachStrandRigidly) {
   EXPECT_EQ(on_flat.strands_moved, 1);
   EXPECT_NEAR(on_flat.largest_move_m, 0.01, 1e-12);
   EXPECT_EQ(on_flat.particles_inside, 1);  // (0.01, 0, 0.1195) is outside, (0.06, 0, 0.085) in
+}
+
+TEST(Groom, RootsInsideCountsTheRootsDeeperThanTheTolerance) {
+  const EllipsoidShape head;
+  Groom g = generatedGroom(4, 6);
+  EXPECT_EQ(rootsInside(head, g, 1e-4).count, 0) << "generated roots lie on the surface";
+  // Strand 0 sunk 1 cm, strand 1 by 0.05 mm (within the tolerance), strand 2 lifted 1 cm.
+  const double moves[3] = {-0.01, -0.00005, 0.01};
+  for (int s = 0; s < 3; ++s)
+    for (uint32_t i = g.strand_offsets[s]; i < g.strand_offsets[s + 1]; ++i)
+      g.points[i] += moves[s] * g.root_normals[s];
+  const RootsInside inside = rootsInside(head, g, 1e-4);
+  EXPECT_EQ(inside.count, 1);
+  EXPECT_NEAR(inside.deepest_m, 0.01, 1e-12);
+  EXPECT_EQ(rootsInside(head, g, 1e-6).count, 2);
 }

@@ -630,6 +630,11 @@ TEST(HairImport, RootsOnTheScalpMoveEachStrandOntoTheHeadAndSaySo) {
   ASSERT_TRUE(importHairAsGroom(file, opts, &as_authored, &error, &report)) << error;
   EXPECT_EQ(report.scalp_placement.strands_moved, 0);
   EXPECT_EQ(report.scalpSummary(), "");
+  EXPECT_EQ(report.roots_inside.count, 2);
+  EXPECT_NEAR(report.roots_inside.deepest_m, 0.01, 1e-9);
+  EXPECT_NE(report.rootsInsideWarning().find("2 of 2 roots lie inside"), std::string::npos)
+      << report.rootsInsideWarning();
+  EXPECT_NE(report.rootsInsideWarning().find("roots_on_scalp"), std::string::npos);
   opts.roots_on_scalp = true;
   ASSERT_TRUE(importHairAsGroom(file, opts, &placed, &error, &report)) << error;
   EXPECT_EQ(report.scalp_placement.strands_moved, 2);
@@ -637,6 +642,8 @@ TEST(HairImport, RootsOnTheScalpMoveEachStrandOntoTheHeadAndSaySo) {
   EXPECT_EQ(report.scalp_placement.particles_inside, 0);
   EXPECT_NE(report.scalpSummary().find("moved 2 of 2 strands"), std::string::npos)
       << report.scalpSummary();
+  EXPECT_EQ(report.roots_inside.count, 0);
+  EXPECT_EQ(report.rootsInsideWarning(), "");
   // Radially out by 1 cm (y up: the top root is +z, the front one +x), shapes kept.
   const Vec3 moves[2] = {Vec3(0, 0, 0.01), Vec3(0.01, 0, 0)};
   for (int s = 0; s < 2; ++s) {
@@ -684,12 +691,11 @@ TEST(HairImport, RefusalsLeaveTheGroomUnchanged) {
     o = HairImportOptions();
     o.roots_on_scalp = true;
     o.scalp.radii_m = radii;
-    cases.push_back({"scalp radii", file, o, "scalp (with roots_on_scalp)"});
+    cases.push_back({"scalp radii", file, o, "import option scalp needs"});
   }
-  o = HairImportOptions();
-  o.roots_on_scalp = true;
+  o = HairImportOptions();  // checked with roots_on_scalp off too: the report counts roots inside
   o.scalp.center_m.z() = INFINITY;
-  cases.push_back({"scalp centre", file, o, "scalp (with roots_on_scalp)"});
+  cases.push_back({"scalp centre", file, o, "import option scalp needs"});
   {
     // Skipped strands never refuse a groom, but a file with no strand left is refused.
     HairFileData f = file;

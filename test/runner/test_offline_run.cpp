@@ -246,7 +246,10 @@ TEST(OfflineRun, RealHairFromAnotherHeadSitsOnThisOneWithRootsOnTheScalp) {
   scene.groom_file.roots_on_scalp = true;
   ASSERT_TRUE(runScene(scene, options, &on_scalp, &why)) << why;
   EXPECT_EQ(as_authored.roots_moved, 0);
+  EXPECT_GT(as_authored.roots_inside_scalp, 0);
+  EXPECT_GT(as_authored.deepest_root_m, 5.0 * scene.solver.collision.offset_m);
   EXPECT_EQ(on_scalp.roots_moved, 228);
+  EXPECT_EQ(on_scalp.roots_inside_scalp, 0);
   EXPECT_GT(on_scalp.root_move_max_m, 0.005);
   // As authored, roots sit 1 cm inside the head and the first edges are stretched to the limit.
   const double offset = scene.solver.collision.offset_m, limit = scene.solver.stretch.strain_limit;

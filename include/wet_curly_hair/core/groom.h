@@ -85,6 +85,17 @@ struct ScalpPlacement {
 /// pushes them out).
 ScalpPlacement placeRootsOnScalp(const EllipsoidShape& head, Groom* groom);
 
+/// The roots deeper inside the ellipsoid than a tolerance: how many, and the deepest, m.
+struct RootsInside {
+  int count = 0;
+  double deepest_m = 0.0;
+};
+
+/// The roots of `groom` more than tolerance_m inside the head's ellipsoid (depth: the distance
+/// to nearestEllipsoidPoint). A kinematic root inside the head holds its strand's first edge
+/// against the head's collision on every substep.
+RootsInside rootsInside(const EllipsoidShape& head, const Groom& groom, double tolerance_m);
+
 /// Mean edge length for a helix of radius r and rise per turn `pitch` sampled at equal chords of
 /// length `edge`: solves l^2 = 4 r^2 sin^2(dt/2) + (pitch/2pi)^2 dt^2 for the angle step dt by
 /// bisection (docs/physics.md A9). Returns dt in (0, pi]; requires edge > 0.

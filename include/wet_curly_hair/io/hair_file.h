@@ -146,7 +146,9 @@ struct HairImportOptions {
   /// the scalp's normal there (placeRootsOnScalp): for a groom authored on another head, whose
   /// roots would otherwise lie inside this one or float above it.
   bool roots_on_scalp = false;
-  EllipsoidShape scalp;  ///< the head's ellipsoid in the output frame, with roots_on_scalp.
+  /// The head's ellipsoid in the output frame: the roots go onto it with roots_on_scalp, and the
+  /// report counts the roots inside it (HairImportReport::roots_inside) either way.
+  EllipsoidShape scalp;
 };
 
 /// Shortest distance between two kept consecutive points of an imported strand, m (after
@@ -160,6 +162,10 @@ constexpr double kHairRepeatPointM = 1e-9;
 /// A total length (not "every edge below a tolerance") because a finely sampled real strand may
 /// have many short edges; its length is what makes it hair.
 constexpr double kHairMinStrandLengthM = 1e-6;
+/// Depth inside the head's ellipsoid past which an imported root counts as inside it, m: far
+/// above the float32 rounding of a root written on the surface (about 1e-8 m at head size), far
+/// below a groom authored on another head (millimetres to centimetres).
+constexpr double kHairRootInsideM = 1e-4;
 /// Fewest points (distinct, after dropping repeats) of an imported strand: with two points a
 /// strand has one edge and no bend, so the bending and curl models have nothing to act on.
 constexpr int kHairMinStrandPoints = 3;
@@ -184,11 +190,16 @@ struct HairImportReport {
   /// With HairImportOptions::roots_on_scalp: the strands moved, the longest move and the
   /// particles left inside the scalp's ellipsoid (all 0 without it).
   ScalpPlacement scalp_placement;
+  /// The imported roots more than kHairRootInsideM inside HairImportOptions::scalp (none with
+  /// roots_on_scalp).
+  RootsInside roots_inside;
   /// One warning naming the skipped strands (the first kHairMaxNamedSkips with their reason,
   /// then "and N more"), or "" when none was skipped.
   std::string warning() const;
   /// What roots_on_scalp did, in a sentence ("" when no root moved).
   std::string scalpSummary() const;
+  /// A warning when roots lie inside the head, with the option that moves them ("" when none).
+  std::string rootsInsideWarning() const;
 };
 
 /// Imports `file` as a Groom: p_head = scale * upAxisRotation(up) * p_file + offset_m, then the

@@ -92,6 +92,10 @@ struct RunSummary {
   int roots_moved = 0;
   double root_move_max_m = 0.0;
   int particles_inside_scalp = 0;
+  /// Roots more than 0.1 mm inside the head's ellipsoid as imported, and the deepest (m): 0
+  /// with roots_on_scalp (HairImportReport::roots_inside).
+  int roots_inside_scalp = 0;
+  double deepest_root_m = 0.0;
   /// Strands too coarse for the configured alpha_b or c_b, raised to the flutter bounds
   /// (HairModel::bend_stabilized_strands).
   int bend_stabilized_strands = 0;
