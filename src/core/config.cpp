@@ -52,11 +52,6 @@ bool finiteVec(const std::string& name, const Vec3& v, std::string* why) {
   return true;
 }
 
-}  // namespace config_check
-
-using namespace config_check;
-
-namespace {
 bool oneOf(const std::string& name, const std::string& value,
            std::initializer_list<const char*> allowed, std::string* why) {
   std::string list;
@@ -67,7 +62,10 @@ bool oneOf(const std::string& name, const std::string& value,
   if (why) *why = name + ": '" + value + "' is not one of " + list;
   return false;
 }
-}  // namespace
+
+}  // namespace config_check
+
+using namespace config_check;
 
 bool StretchConfig::validate(const std::string& p, std::string* why) const {
   return finiteInRange(p + "axial_stiffness_n", axial_stiffness_n, 1e-9, 1e9, why) &&

@@ -156,8 +156,13 @@ void attachFollowers(int guides, std::vector<int> source, HairModel* m) {
 
 }  // namespace
 
+GuideChoice guideChoice(const std::string& name) {
+  return name == "first" ? GuideChoice::kFirst : GuideChoice::kSampled;
+}
+
 bool buildFollowerModel(const Groom& groom, double rho, int follow_ratio, const HeadShape& head,
-                        const SolverConfig& config, HairModel* model, std::string* why) {
+                        const SolverConfig& config, HairModel* model, std::string* why,
+                        GuideChoice choice) {
   if (follow_ratio < 1 || follow_ratio > kMaxFollowRatio) {
     if (why) {
       *why = "groom.follow_ratio: " + std::to_string(follow_ratio) +
@@ -170,9 +175,14 @@ bool buildFollowerModel(const Groom& groom, double rho, int follow_ratio, const 
   const int strands = groom.strandCount();
   const int guides = (strands + follow_ratio - 1) / follow_ratio;
   if (guides >= strands) return buildModel(groom, rho, head, config, model, why);
-  Vec3List roots(strands);
-  for (int s = 0; s < strands; ++s) roots[s] = groom.points[groom.strand_offsets[s]];
-  std::vector<int> order = selectGuides(roots, guides);
+  std::vector<int> order;
+  if (choice == GuideChoice::kFirst) {
+    for (int s = 0; s < guides; ++s) order.push_back(s);
+  } else {
+    Vec3List roots(strands);
+    for (int s = 0; s < strands; ++s) roots[s] = groom.points[groom.strand_offsets[s]];
+    order = selectGuides(roots, guides);
+  }
   std::vector<char> is_guide(strands, 0);
   for (int g : order) is_guide[g] = 1;
   for (int s = 0; s < strands; ++s)

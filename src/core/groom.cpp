@@ -84,6 +84,7 @@ bool GroomConfig::validate(const std::string& p, std::string* why) const {
     if (why) *why = p + "scalp_axis: must not be the zero vector";
     return false;
   }
+  if (!oneOf(p + "guides", guides, {"sampled", "first"}, why)) return false;
   if (curl_radius_m > 0.0 && curl_pitch_m <= 0.0) {
     if (why)
       *why = p + "curl_pitch_m: must be > 0 when curl_radius_m > 0 (a flat curl lies on the scalp)";

@@ -160,6 +160,9 @@ void addGroomParameters(SceneConfig* s, std::vector<ParamRef>* table) {
   i("groom.follow_ratio", &g.follow_ratio,
     "K: one strand in K is simulated (guide), the others follow their nearest guides (1: all)",
     true);
+  str("groom.guides", &g.guides,
+      "with K > 1: sampled (farthest-point on the roots) or first (the groom's first N/K strands)",
+      true);
   GroomFileConfig& gf = s->groom_file;
   str("groom_file.file", &gf.file, ".hair file to load instead of generating (empty: generate)",
       true);

@@ -53,10 +53,10 @@ bool buildSceneModel(const SceneConfig& scene, HairModel* model, std::string* wh
   Groom groom;
   HairImportReport r;
   if (!makeGroom(scene, &groom, why, &r)) return false;
-  // Guides are chosen from the groom's roots by the same rule whether it was generated or read
-  // from a .hair file.
+  // Guides are chosen by the same rule (groom.guides) whether it was generated or read from a
+  // .hair file.
   if (!buildFollowerModel(groom, scene.groom.linear_density_kg_per_m, scene.groom.follow_ratio,
-                          scene.head, scene.solver, model, why))
+                          scene.head, scene.solver, model, why, guideChoice(scene.groom.guides)))
     return false;
   if (report != nullptr) *report = std::move(r);
   return true;

@@ -168,6 +168,48 @@ TEST(Followers, ModelWeightsSumToOneAndGuidesComeFirst) {
   }
 }
 
+TEST(Followers, GuidesFirstTakesTheGroomsFirstStrandsAsAModelOrdersThem) {
+  // A model's strands, guides first, written out as a groom (as the runner's .hair frames write
+  // them) and read back with groom.guides "first": the same guides, followers, weights and
+  // samples, every strand where it was.
+  const SolverConfig c;
+  const Groom g = curlyGroom(40);
+  const HairModel sampled = followerModel(g, 4, c);
+  Groom in_model_order;
+  for (int s = 0; s < sampled.strandCount(); ++s) {
+    const int src = sampled.followers.source_strand[s];
+    in_model_order.points.insert(in_model_order.points.end(),
+                                 g.points.begin() + g.strand_offsets[src],
+                                 g.points.begin() + g.strand_offsets[src + 1]);
+    in_model_order.strand_offsets.push_back(static_cast<uint32_t>(in_model_order.points.size()));
+    in_model_order.root_normals.push_back(g.root_normals[src]);
+  }
+  HairModel first;
+  std::string why;
+  ASSERT_TRUE(buildFollowerModel(in_model_order, GroomConfig().linear_density_kg_per_m, 4,
+                                 HeadShape(), c, &first, &why, GuideChoice::kFirst))
+      << why;
+  ASSERT_EQ(first.followers.guide_strands, sampled.followers.guide_strands);
+  for (int s = 0; s < first.strandCount(); ++s) EXPECT_EQ(first.followers.source_strand[s], s);
+  EXPECT_EQ(first.followers.guide, sampled.followers.guide);
+  EXPECT_EQ(first.followers.weight, sampled.followers.weight);
+  EXPECT_EQ(first.followers.sample_index, sampled.followers.sample_index);
+  EXPECT_EQ(first.rest_position_head, sampled.rest_position_head);
+  // On the generated groom the first strands are guides too, where sampling picks others.
+  HairModel first_generated;
+  ASSERT_TRUE(buildFollowerModel(g, GroomConfig().linear_density_kg_per_m, 4, HeadShape(), c,
+                                 &first_generated, &why, GuideChoice::kFirst))
+      << why;
+  int sampled_elsewhere = 0;
+  for (int s = 0; s < first_generated.followers.guide_strands; ++s) {
+    EXPECT_EQ(first_generated.followers.source_strand[s], s);
+    sampled_elsewhere += sampled.followers.source_strand[s] != s;
+  }
+  EXPECT_GT(sampled_elsewhere, 0);
+  EXPECT_EQ(guideChoice("first"), GuideChoice::kFirst);
+  EXPECT_EQ(guideChoice("sampled"), GuideChoice::kSampled);
+}
+
 TEST(Followers, BadFollowRatioIsRefusedWithTheKeyNamed) {
   const SolverConfig c;
   const Groom g = curlyGroom(10);

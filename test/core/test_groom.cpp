@@ -122,6 +122,11 @@ TEST(Groom, ConfigRefusesBadValuesByName) {
   c.curl_pitch_m = 0.0;
   EXPECT_FALSE(c.validate("groom.", &why));
   EXPECT_NE(why.find("groom.curl_pitch_m"), std::string::npos);
+  c = GroomConfig();
+  c.guides = "farthest";
+  EXPECT_FALSE(c.validate("groom.", &why));
+  EXPECT_NE(why.find("groom.guides: 'farthest' is not one of sampled, first"), std::string::npos)
+      << why;
 }
 
 TEST(Groom, HelixAngleStepGivesTheChord) {

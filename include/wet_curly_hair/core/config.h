@@ -3,6 +3,7 @@
 // validate(), which names the offending field with its dotted scene-YAML name.
 #pragma once
 
+#include <initializer_list>
 #include <string>
 #include <string_view>
 
@@ -360,6 +361,8 @@ bool finiteInRange(const std::string& name, double value, double lo, double hi, 
 bool positive(const std::string& name, double value, std::string* why);
 bool nonNegative(const std::string& name, double value, std::string* why);
 bool finiteVec(const std::string& name, const Vec3& v, std::string* why);
+bool oneOf(const std::string& name, const std::string& value,
+           std::initializer_list<const char*> allowed, std::string* why);
 }  // namespace config_check
 
 }  // namespace wet_curly_hair

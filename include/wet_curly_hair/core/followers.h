@@ -31,14 +31,23 @@ std::vector<int> selectGuides(const Vec3List& roots, int count);
 /// the scalp. A follower on a guide's root (d[0] below 1e-9 m) copies that guide alone.
 void followerWeights(const double* d, int count, double* w);
 
-/// Builds the model of a groom of which one strand in follow_ratio is simulated: guides chosen
-/// from the roots by selectGuides (ceil(N / K) of them), the model's strands ordered guides
-/// first (FollowerMap::source_strand gives each one's groom index), each follower's guides,
-/// weights and arc-length samples fixed here. follow_ratio 1 is buildModel. False with a reason
-/// naming groom.follow_ratio or the field buildModel refused; *model unchanged then.
+/// How buildFollowerModel chooses its ceil(N / K) guides (GroomConfig::guides).
+enum class GuideChoice {
+  kSampled,  ///< farthest-point sampling on the roots (selectGuides): "sampled"
+  kFirst,    ///< the groom's first strands, in their order: "first"
+};
+
+/// The choice named by GroomConfig::guides ("first", else sampled: validated there).
+GuideChoice guideChoice(const std::string& name);
+
+/// Builds the model of a groom of which one strand in follow_ratio is simulated: ceil(N / K)
+/// guides chosen by `choice`, the model's strands ordered guides first (FollowerMap::source_strand
+/// gives each one's groom index), each follower's guides, weights and arc-length samples fixed
+/// here. follow_ratio 1 is buildModel. False with a reason naming groom.follow_ratio or the field
+/// buildModel refused; *model unchanged then.
 bool buildFollowerModel(const Groom& groom, double linear_density_kg_per_m, int follow_ratio,
                         const HeadShape& head, const SolverConfig& config, HairModel* model,
-                        std::string* why);
+                        std::string* why, GuideChoice choice = GuideChoice::kSampled);
 
 /// The rest shape of strand s exaggerated toward its wet helix by its saturation `sigma` (one per
 /// particle), head frame, into out[0 .. size). Each rest edge e turns toward the helix edge h of

@@ -53,6 +53,11 @@ struct GroomConfig {
   /// K: one strand in K is simulated (a guide), the others follow their nearest guides
   /// (followers.h); 1 simulates every strand. Applies to a groom read from a .hair file too.
   int follow_ratio = 1;
+  /// How the guides are chosen with follow_ratio > 1: "sampled", farthest-point sampling on the
+  /// roots (selectGuides), or "first", the groom's first ceil(N / K) strands: guides marked in a
+  /// file by their place, as this package's .hair frames and TressFX's guide-then-follower order
+  /// put them. Applies to a .hair groom too.
+  std::string guides = "sampled";
   bool validate(const std::string& prefix, std::string* why) const;
 };
 
