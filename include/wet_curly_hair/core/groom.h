@@ -55,8 +55,8 @@ struct GroomConfig {
   int follow_ratio = 1;
   /// How the guides are chosen with follow_ratio > 1: "sampled", farthest-point sampling on the
   /// roots (selectGuides), or "first", the groom's first ceil(N / K) strands: guides marked in a
-  /// file by their place, as this package's .hair frames and TressFX's guide-then-follower order
-  /// put them. Applies to a .hair groom too.
+  /// file by their place, as this package's .hair frames write them (guides first). Applies to a
+  /// .hair groom too.
   std::string guides = "sampled";
   bool validate(const std::string& prefix, std::string* why) const;
 };
