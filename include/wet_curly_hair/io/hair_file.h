@@ -210,8 +210,7 @@ struct HairImportReport {
 /// kHairMinStrandPoints distinct points once repeats (points within kHairRepeatPointM of the
 /// previous kept one) are dropped, or a resampling that fails. Refuses invalid options, data that
 /// validateHairData rejects, and a file none of whose strands can be imported (the message names
-/// why); the result passes Groom::validate. On failure
-/// `*groom` and `*report` are unchanged.
+/// why); the result passes Groom::validate. On failure `*groom` and `*report` are unchanged.
 bool importHairAsGroom(const HairFileData& file, const HairImportOptions& opts, Groom* groom,
                        std::string* error, HairImportReport* report = nullptr);
 
